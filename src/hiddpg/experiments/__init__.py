@@ -1,0 +1,1 @@
+"""Paper reproductions (Figs. 3-8), the statistics that compare methods, and figure data."""
