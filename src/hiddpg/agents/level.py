@@ -1,0 +1,139 @@
+"""One level of HI-DDPG: a DDPG block, a dynamics model and a replay buffer (paper Fig. 2).
+
+Both levels have the same shape: the actor sees ``[s, c]`` — the state and a *context* (the
+goal for the low level, nothing for the high level) — and outputs a unit action; the model
+predicts the next state from ``(s, a)``; the value of a predicted next state ``x`` is
+``V(x) = Q([x, c], μ([x, c]))``. One update (paper Alg. 1 lines 12 and 16-20) is:
+
+1. critic step on a minibatch (eq. 3 / eq. 5 with the discount of Alg. 1 line 17);
+2. actor step along ``∂Q/∂a + λ ∂V(ŝ')/∂ŝ' ∂ŝ'/∂a`` (eqs. 2, 4, 6, 7);
+3. model step (if the model is used);
+4. soft target update.
+
+Transitions stored: ``s, c, a, r, s2, terminated`` with ``s2`` the next state.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from hiddpg.agents import buffer
+from hiddpg.agents.block import BlockState, DDPGBlock
+from hiddpg.agents.model_grad import DynamicsModel, ModelState, batched_model_gradient
+from hiddpg.configs import LevelConfig
+
+
+@struct.dataclass
+class LevelState:
+    block: BlockState
+    model: ModelState
+    buffer: buffer.ReplayBuffer
+
+
+@dataclasses.dataclass(frozen=True)
+class Level:
+    """Static description of a level.
+
+    Attributes:
+        config: the level's hyper-parameters.
+        state_dim: size of ``s`` (the observation).
+        context_dim: size of ``c`` (0 for the high level).
+        action_dim: size of the unit action.
+        time_scale: the model's ``Δt`` (low level: the env's control period; high level: 1).
+        model_weight: λ of the model-based gradient (0 switches the term off).
+        use_model: whether the model is trained.
+    """
+
+    config: LevelConfig
+    state_dim: int
+    context_dim: int
+    action_dim: int
+    time_scale: float
+    model_weight: float
+    use_model: bool
+
+    @property
+    def block(self) -> DDPGBlock:
+        c = self.config
+        return DDPGBlock(self.state_dim + self.context_dim, self.action_dim, tuple(c.hidden),
+                         c.lr, c.lr, c.gamma, c.tau, c.invert_gradients)
+
+    @property
+    def model(self) -> DynamicsModel:
+        return DynamicsModel(self.state_dim, self.action_dim, tuple(self.config.hidden),
+                             self.config.lr, self.time_scale)
+
+    def example_transition(self) -> dict[str, jax.Array]:
+        z = lambda n: jnp.zeros((n,), jnp.float32)  # noqa: E731
+        return {"s": z(self.state_dim), "c": z(self.context_dim), "a": z(self.action_dim),
+                "r": jnp.zeros(()), "s2": z(self.state_dim), "terminated": jnp.zeros((), bool)}
+
+    def init(self, key: jax.Array) -> LevelState:
+        k_block, k_model = jax.random.split(key)
+        return LevelState(
+            block=self.block.init(k_block),
+            model=self.model.init(k_model),
+            buffer=buffer.init(self.example_transition(), self.config.buffer_size),
+        )
+
+    def act(self, state: LevelState, s: jax.Array, c: jax.Array) -> jax.Array:
+        """The noise-free unit action ``μ([s, c])``."""
+        return self.block.act(state.block, jnp.concatenate([s, c], axis=-1))
+
+    def store(self, state: LevelState, transition: dict, mask: jax.Array) -> LevelState:
+        return state.replace(buffer=buffer.add(state.buffer, transition, mask))
+
+    def set_learning_rate(self, state: LevelState, lr: jax.Array) -> LevelState:
+        return state.replace(block=self.block.set_learning_rates(state.block, lr, lr),
+                             model=self.model.set_learning_rate(state.model, lr))
+
+    # -- the model-based gradient -----------------------------------------------------------
+    def extra_dq_da(self, block_state: BlockState, model_state: ModelState):
+        """``(inputs, a) -> λ ∂V(ŝ')/∂ŝ' ∂ŝ'/∂a`` for the block's actor step (spec §3)."""
+        n, block, model, lam = self.state_dim, self.block, self.model, self.model_weight
+        critic = block_state.critic
+        actor = jax.lax.stop_gradient(block_state.actor)
+
+        def predict(inp: jax.Array, a: jax.Array) -> jax.Array:
+            return model.predict(model_state.params, inp[:n], a)
+
+        def value(inp: jax.Array, x: jax.Array) -> jax.Array:
+            xc = jnp.concatenate([x, inp[n:]])
+            return block.q(critic, xc, block.mu(actor, xc))
+
+        return lambda inputs, a: lam * batched_model_gradient(value, predict, inputs, a)
+
+    # -- one update -------------------------------------------------------------------------
+    def update(self, state: LevelState, key: jax.Array) -> tuple[LevelState, dict]:
+        """Critic, actor (with the model-based term), model and target updates on one batch."""
+        tr = buffer.sample(state.buffer, key, self.config.batch_size)
+        inputs = jnp.concatenate([tr["s"], tr["c"]], axis=-1)
+        batch = {"obs": inputs, "action": tr["a"], "reward": tr["r"],
+                 "next_obs": jnp.concatenate([tr["s2"], tr["c"]], axis=-1),
+                 "terminated": tr["terminated"]}
+        block = self.block
+        block_state, critic_m = block.critic_update(state.block, batch)
+        extra = self.extra_dq_da(block_state, state.model) if self.model_weight > 0 else None
+        block_state, actor_m = block.actor_update(block_state, inputs, extra)
+        block_state = block.soft_update(block_state)
+        model_state, model_loss = state.model, jnp.zeros(())
+        if self.use_model:
+            model_state, model_loss = self.model.update(state.model, tr["s"], tr["a"], tr["s2"])
+        metrics = {"critic_loss": critic_m["critic_loss"], "actor_loss": actor_m["actor_loss"],
+                   "model_loss": model_loss}
+        return state.replace(block=block_state, model=model_state), metrics
+
+    def maybe_update(self, state: LevelState, key: jax.Array, do: jax.Array):
+        """:meth:`update` if ``do`` else nothing (``lax.cond``: a select under ``vmap``)."""
+        return jax.lax.cond(do, lambda s: self.update(s, key), lambda s: (s, zero_metrics()),
+                            state)
+
+
+def zero_metrics() -> dict[str, Any]:
+    return {"critic_loss": jnp.zeros(()), "actor_loss": jnp.zeros(()),
+            "model_loss": jnp.zeros(())}

@@ -1,0 +1,151 @@
+"""``hiddpg eval``: replay a run's learned policies without noise, optionally as a GIF.
+
+::
+
+    hiddpg eval DIR [--seed S] [--gif FILE] [--key K]
+
+Loads ``DIR``'s config and checkpoint, runs one noise-free, non-learning episode per seed
+(:meth:`hiddpg.train.Trainer.evaluate_seeds`) and prints return, environment return, goal
+switches and length per seed. ``--gif FILE`` draws seed ``S``'s episode (default: the run's
+first seed) with :mod:`hiddpg.render`: HI-DDPG's current goal and its switch points, h-DDPG's
+current skill and the steps where it changed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+import jax
+import numpy as np
+
+from hiddpg.runs import Run, make_trainer
+
+PROG = "hiddpg eval"
+#: GIF frame rate cap: the arm (50 control steps/s) plays at half speed.
+MAX_FPS = 25.0
+COLUMNS = ("return", "env_return", "switches", "length")
+
+
+class UsageError(ValueError):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise UsageError(message)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog=PROG, description="Replay a run's learned policies without noise.")
+    p.add_argument("run", metavar="DIR", help="a run directory written by `hiddpg train`")
+    p.add_argument("--seed", type=int, default=None,
+                   help="only this seed (default: all); the GIF's seed (default: the first)")
+    p.add_argument("--gif", default=None, metavar="FILE", help="write the episode as a GIF")
+    p.add_argument("--key", type=int, default=0,
+                   help="evaluation key: seed s is evaluated with fold_in(PRNGKey(K), s)")
+    return p
+
+
+def eval_keys(key: int, seeds: Sequence[int]) -> jax.Array:
+    """One evaluation key per seed, independent of which other seeds are in the run."""
+    base = jax.random.PRNGKey(key)
+    return jax.numpy.stack([jax.random.fold_in(base, int(s)) for s in seeds])
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``hiddpg eval`` with ``argv``; returns the exit code (2 on a bad command line)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if {"-h", "--help"} & set(argv):
+        build_parser().print_help()
+        return 0
+    try:
+        args = build_parser().parse_args(argv)
+        run = Run.open(args.run)
+        if args.seed is not None and args.seed not in run.seeds:
+            raise UsageError(f"--seed {args.seed} is not in the run; its seeds are "
+                             f"{list(run.seeds)}")
+        if not run.checkpoint_path.is_file():
+            raise UsageError(f"{run.path} has no checkpoint yet")
+        trainer = make_trainer(run.config)
+    except (UsageError, ValueError, FileNotFoundError) as err:
+        print(f"{PROG}: error: {err}", file=sys.stderr)
+        return 2
+    state, done = run.load_checkpoint(trainer)
+    metrics, traj = trainer.evaluate_seeds(state, eval_keys(args.key, run.seeds))
+    metrics = {k: np.asarray(v) for k, v in metrics.items()}
+    shown = [args.seed] if args.seed is not None else list(run.seeds)
+    print(f"{run.config.algo} on {run.config.task}, {done} episodes, noise-free evaluation")
+    print(f"{'seed':>6}" + "".join(f"{c:>12}" for c in COLUMNS))
+    for seed in shown:
+        i = run.seeds.index(seed)
+        print(f"{seed:>6}" + "".join(f"{_fmt(metrics[c][i], c):>12}" for c in COLUMNS))
+    if len(shown) > 1:
+        ret = metrics["return"]
+        print(f"{'mean':>6}{ret.mean():>12.3f}  ± {ret.std(ddof=1):.3f} (std over seeds)")
+    if args.gif:
+        seed = shown[0]
+        i = run.seeds.index(seed)
+        one = {k: np.asarray(v)[i] for k, v in traj.items()}
+        title = (f"{run.config.algo} seed {seed}, {done} episodes: "
+                 f"env return {float(metrics['env_return'][i]):.2f}")
+        path = write_episode_gif(trainer, one, args.gif, title)
+        print(f"wrote {path}")
+    return 0
+
+
+def _fmt(v: Any, column: str) -> str:
+    v = float(np.asarray(v))
+    return str(int(v)) if column in ("switches", "length") and v.is_integer() else f"{v:.3f}"
+
+
+def write_episode_gif(trainer: Any, traj: dict[str, np.ndarray], path: str, title: str):
+    """Draw one evaluation episode (trajectory arrays of one seed) and write it as a GIF."""
+    from hiddpg import render
+
+    env, params = trainer.env, trainer.env_params
+    n = max(int(np.asarray(traj["alive"]).sum()), 1)
+    obs = np.asarray(traj["obs"])[:n]
+    if "next_obs" in traj:  # the state after the last action too
+        obs = np.concatenate([obs, np.asarray(traj["next_obs"])[n - 1:n]])
+    states = obs[:, :env.state_dim]  # every task observes its physical state first
+    target = obs[0, env.state_dim:env.state_dim + 2] if env.obs_dim > env.state_dim else None
+    kwargs: dict[str, Any] = dict(actions=np.asarray(traj["action"])[:n],
+                                  rewards=np.asarray(traj["reward"])[:n], title=title,
+                                  target=target)
+    if "goal" in traj:  # HI-DDPG: the current goal, switch points marked
+        goal = np.asarray(traj["goal"])[:n]
+        if goal.shape[-1] == env.obs_dim != env.goal_space.dim:
+            goal = goal[..., list(env.goal_space.indices)]
+        kwargs["goals"] = goal
+        if "switch" in traj:
+            kwargs["switches"] = np.asarray(traj["switch"])[:n].astype(bool)
+        frames = render.render_rollout(env, params, states, **kwargs)
+    elif "skill" in traj:  # h-DDPG: the current skill, changes marked
+        frames = _skill_frames(render, env, params, states, np.asarray(traj["skill"])[:n],
+                               **kwargs)
+    else:
+        frames = render.render_rollout(env, params, states, **kwargs)
+    return render.write_gif(frames, path, fps=min(1.0 / env.dt, MAX_FPS))
+
+
+def _skill_frames(render, env, params, states, skill, *, actions, rewards, title, target):
+    """Frames with the current skill in the text and a mark where the skill changed."""
+    scene = render.Scene(env, params, target=target)
+    trail, marks, frames, ret = [], [], [], 0.0
+    for k, x in enumerate(states):
+        trail.append(scene.position(x))
+        if k > 0:
+            ret += float(rewards[k - 1])
+            if np.any(skill[k] != skill[k - 1]):
+                marks.append(trail[-1])
+        text = [title, f"step {k:3d}   return {ret:8.2f}   skill {np.asarray(skill[k]).tolist()}"]
+        overlay = render.Overlay(trail=list(trail), switch_points=list(marks), text=text)
+        frames.append(scene.frame(x, None if k == 0 else actions[k - 1], overlay))
+    return frames
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,270 @@
+"""Typed, frozen, validated configs for every agent and for training runs.
+
+Every default is the spec's (``shared/spec/algorithms.md``); tags in the field comments say
+where a value comes from: [paper], [source] or [decision]. Configs validate on construction and
+name the field, the bad value and what is allowed. Presets (``paper``, ``quick``) live in
+:mod:`hiddpg.presets`; ``--set key=value`` overrides are applied by :func:`apply_overrides`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+ALGORITHMS = ("ddpg", "hi-ddpg", "hi-ddpg-wo-model", "h-ddpg")
+
+
+def _positive(obj: Any, *names: str) -> None:
+    for name in names:
+        v = getattr(obj, name)
+        if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+            raise ValueError(f"{type(obj).__name__}.{name}={v!r} must be a finite number > 0")
+
+
+def _unit(obj: Any, *names: str, closed: bool = True) -> None:
+    for name in names:
+        v = getattr(obj, name)
+        ok = isinstance(v, int | float) and (0 <= v <= 1 if closed else 0 < v <= 1)
+        if not ok:
+            rng = "[0, 1]" if closed else "(0, 1]"
+            raise ValueError(f"{type(obj).__name__}.{name}={v!r} must lie in {rng}")
+
+
+def _hidden(obj: Any) -> None:
+    h = obj.hidden
+    if not h or any(not isinstance(n, int) or n <= 0 for n in h):
+        raise ValueError(
+            f"{type(obj).__name__}.hidden={h!r} must be a non-empty tuple of positive ints"
+        )
+
+
+def _buffer(obj: Any) -> None:
+    if obj.batch_size > obj.buffer_size:
+        raise ValueError(
+            f"{type(obj).__name__}.batch_size={obj.batch_size} is larger than "
+            f"buffer_size={obj.buffer_size}; it must be <= buffer_size"
+        )
+
+
+@dataclass(frozen=True)
+class NoiseConfig:
+    """Exploration noise added to an actor's output in its normalised ([-1, 1]) box."""
+
+    kind: Literal["ou", "gaussian"] = "ou"
+    """Ornstein-Uhlenbeck (reset every episode) [paper] or i.i.d. Gaussian [decision]."""
+    theta: float = 0.05
+    """OU mean reversion α [paper]."""
+    sigma: float = 0.1
+    """Noise scale: 0.1 on the puck, 0.15 on the arm [paper]."""
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("ou", "gaussian"):
+            raise ValueError(f"NoiseConfig.kind={self.kind!r} must be 'ou' or 'gaussian'")
+        _unit(self, "theta")
+        if not self.sigma >= 0:
+            raise ValueError(f"NoiseConfig.sigma={self.sigma!r} must be >= 0")
+
+
+@dataclass(frozen=True)
+class DDPGConfig:
+    """Flat DDPG (the paper's "plain DDPG"), built on the shared DDPG block (spec §1)."""
+
+    hidden: tuple[int, ...] = (300, 300)
+    """Hidden layer sizes of actor and critic; arm tasks add a third 300 layer [paper]."""
+    actor_lr: float = 1e-4
+    """Adam learning rate of the actor [decision: DDPG paper]."""
+    critic_lr: float = 1e-3
+    """Adam learning rate of the critic [decision: DDPG paper]."""
+    gamma: float = 0.99
+    """Discount [decision]."""
+    tau: float = 0.001
+    """Polyak rate of the target networks [decision: DDPG paper]."""
+    batch_size: int = 64
+    """Minibatch size [decision: DDPG paper]."""
+    buffer_size: int = 100_000
+    """Replay capacity [decision]."""
+    learning_starts: int = 1000
+    """Environment steps of uniformly random actions before learning starts [decision]."""
+    noise: NoiseConfig = field(default_factory=NoiseConfig)
+    lr_decay: float = 1.0
+    """Learning rates are multiplied by this every ``lr_decay_every`` episodes (1 = off)."""
+    lr_decay_every: int = 50
+
+    def __post_init__(self) -> None:
+        _hidden(self)
+        _positive(self, "actor_lr", "critic_lr", "batch_size", "buffer_size", "lr_decay_every")
+        _unit(self, "gamma", "tau", "lr_decay")
+        if self.learning_starts < 0:
+            raise ValueError(f"DDPGConfig.learning_starts={self.learning_starts} must be >= 0")
+        _buffer(self)
+
+
+@dataclass(frozen=True)
+class LevelConfig:
+    """One level (high or low) of HI-DDPG: a DDPG block plus its dynamics model."""
+
+    hidden: tuple[int, ...] = (300, 300)
+    """Hidden sizes of actor, critic and model [paper]."""
+    lr: float = 2e-4
+    """Adam learning rate shared by the level's actor, critic and model [paper]."""
+    gamma: float = 0.95
+    """Discount: 0.99 high level, 0.95 low level [paper]."""
+    tau: float = 0.001
+    """Polyak rate of the target networks [decision]."""
+    batch_size: int = 64
+    """Minibatch size [decision]."""
+    buffer_size: int = 10_000
+    """Replay capacity: puck D_H = 1e5, D_L = 1e4; arm 1e6 / 1e5 [paper]."""
+    noise: NoiseConfig = field(default_factory=NoiseConfig)
+    """OU noise on the level's normalised outputs [paper]."""
+    invert_gradients: bool = False
+    """Damp the actor's action gradient near the bounds of its box so that ``tanh`` does not
+    saturate (Hausknecht & Stone 2016) [decision; False = the paper's plain DPG]."""
+
+    def __post_init__(self) -> None:
+        _hidden(self)
+        _positive(self, "lr", "batch_size", "buffer_size")
+        _unit(self, "gamma", "tau")
+        _buffer(self)
+
+
+def _high_default() -> LevelConfig:
+    return LevelConfig(lr=2e-5, gamma=0.99, buffer_size=100_000)
+
+
+def _low_default() -> LevelConfig:
+    return LevelConfig(lr=2e-4, gamma=0.95, buffer_size=10_000)
+
+
+@dataclass(frozen=True)
+class HIDDPGConfig:
+    """HI-DDPG (spec §2-3). ``model_weight = 0`` with ``use_model = False`` is HI-DDPG-wo-model."""
+
+    high: LevelConfig = field(default_factory=_high_default)
+    low: LevelConfig = field(default_factory=_low_default)
+    duration_min: float = 1.0
+    """Smallest duration T the high level can choose: puck 1, arm 2 [decision]."""
+    duration_max: float = 30.0
+    """Largest duration T: puck 30, arm 40 [decision]."""
+    switch_cost: float = 10.0
+    """Subtracted from f for every goal after the first: 10 on puck trajectories [paper]."""
+    model_weight: float = 1.0
+    """λ_model, weight of the model-based gradient (eqs. 6-7) [decision]."""
+    use_model: bool = True
+    """Train the dynamics models (False for HI-DDPG-wo-model)."""
+    pretrain_episodes: int = 0
+    """Episodes of low-level pre-training with random goals: arm 1000, puck 0 [paper]."""
+    learning_starts: int = 1000
+    """Environment steps with random goals and random actions before learning [decision]."""
+    high_learning_starts: int = 64
+    """Segments stored in D_H before the high level starts learning [decision]."""
+    lr_decay: float = 1.0
+    """Learning rates multiplied by this every ``lr_decay_every`` episodes: arm 0.99 [paper]."""
+    lr_decay_every: int = 50
+    high_update_on: Literal["segment", "step"] = "segment"
+    """When the high level learns: at every segment end (Alg. 1 lines 16-20) [paper], or at
+    every environment step [decision: under ``vmap`` the masked update is computed every step
+    anyway, so ``"step"`` gives ~T times more high-level updates for the same compute]."""
+
+    def __post_init__(self) -> None:
+        if self.high_update_on not in ("segment", "step"):
+            raise ValueError(f"HIDDPGConfig.high_update_on={self.high_update_on!r} must be "
+                             "'segment' or 'step'")
+        _positive(self, "duration_min", "duration_max", "lr_decay_every")
+        if self.duration_min > self.duration_max:
+            raise ValueError(
+                f"HIDDPGConfig.duration_min={self.duration_min} (T_min) is larger than "
+                f"duration_max={self.duration_max} (T_max); it must be <= duration_max"
+            )
+        if self.model_weight < 0 or not math.isfinite(self.model_weight):
+            raise ValueError(f"HIDDPGConfig.model_weight={self.model_weight} must be >= 0")
+        if self.model_weight > 0 and not self.use_model:
+            raise ValueError(
+                f"HIDDPGConfig.model_weight={self.model_weight} needs use_model=True "
+                "(set model_weight=0 for HI-DDPG-wo-model)"
+            )
+        for name in ("pretrain_episodes", "learning_starts", "high_learning_starts"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"HIDDPGConfig.{name}={getattr(self, name)} must be >= 0")
+        if not math.isfinite(self.switch_cost):
+            raise ValueError(f"HIDDPGConfig.switch_cost={self.switch_cost} must be finite")
+        _unit(self, "lr_decay")
+
+
+AgentConfig = DDPGConfig | HIDDPGConfig
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """A training run: which algorithm on which task, for how long, with what agent config.
+
+    The seeds are not part of the config: one config is trained on many seeds at once.
+    """
+
+    algo: str
+    """One of :data:`ALGORITHMS`."""
+    task: str
+    """A registered task, e.g. ``hiddpg/PuckTrajectory2-v0``."""
+    agent: Any
+    """The algorithm's config (:class:`DDPGConfig`, :class:`HIDDPGConfig`, ...)."""
+    episodes: int = 1000
+    """Training episodes per seed."""
+    eval_every: int = 10
+    """Run a noise-free evaluation episode every this many episodes (and at the end)."""
+    chunk_episodes: int = 50
+    """Episodes per jitted chunk; a checkpoint is written after every chunk."""
+    env: tuple[tuple[str, Any], ...] = ()
+    """Environment parameter overrides, as (name, value) pairs."""
+    preset: str = "paper"
+    """The preset this config was built from (recorded for provenance)."""
+
+    def __post_init__(self) -> None:
+        if self.algo not in ALGORITHMS:
+            raise ValueError(f"algo={self.algo!r} is unknown; choose one of {list(ALGORITHMS)}")
+        _positive(self, "episodes", "eval_every", "chunk_episodes")
+        for name in ("episodes", "eval_every", "chunk_episodes"):
+            if not isinstance(getattr(self, name), int):
+                raise ValueError(f"TrainConfig.{name}={getattr(self, name)!r} must be an int")
+
+    @property
+    def env_overrides(self) -> dict[str, Any]:
+        return dict(self.env)
+
+
+def to_dict(cfg: Any) -> dict[str, Any]:
+    """A JSON-ready dict of a (nested) config, with a ``_type`` tag for each dataclass."""
+    if dataclasses.is_dataclass(cfg):
+        out = {"_type": type(cfg).__name__}
+        for f in dataclasses.fields(cfg):
+            out[f.name] = to_dict(getattr(cfg, f.name))
+        return out
+    if isinstance(cfg, tuple):
+        return [to_dict(v) for v in cfg]
+    return cfg
+
+
+_TYPES = {c.__name__: c for c in (NoiseConfig, DDPGConfig, LevelConfig, HIDDPGConfig, TrainConfig)}
+
+
+def register_config_type(cls: type) -> type:
+    """Make a config dataclass known to :func:`from_dict` (agents added later use this)."""
+    _TYPES[cls.__name__] = cls
+    return cls
+
+
+def from_dict(data: Any) -> Any:
+    """Inverse of :func:`to_dict`."""
+    if isinstance(data, dict) and "_type" in data:
+        cls = _TYPES[data["_type"]]
+        kwargs = {k: from_dict(v) for k, v in data.items() if k != "_type"}
+        for f in dataclasses.fields(cls):
+            if f.name in kwargs and isinstance(kwargs[f.name], list):
+                kwargs[f.name] = _tuplify(kwargs[f.name])
+        return cls(**kwargs)
+    return data
+
+
+def _tuplify(v: Any) -> Any:
+    return tuple(_tuplify(x) for x in v) if isinstance(v, list) else v

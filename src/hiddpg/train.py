@@ -1,0 +1,150 @@
+"""The training engine shared by every agent: one run is a jitted scan, seeds are a vmap.
+
+``make_train(config)`` returns a pure ``train(key) -> (state, metrics)`` (PureJaxRL style) and
+:class:`Trainer` offers the same computation in chunks for the shell (progress bars,
+checkpoints, resume). Both go through :meth:`Trainer.run_chunk`, so one seed and fifteen seeds,
+one chunk and many, take the same code path:
+
+* a chunk is ``chunk_episodes`` episodes: an outer ``lax.scan`` over evaluation blocks of
+  ``eval_every`` training episodes followed by one noise-free evaluation episode;
+* seeds are a leading axis on the run state: ``jax.vmap`` over :meth:`Trainer.init` keys.
+
+The engine knows nothing about an agent's inside (see :mod:`hiddpg.agents.base`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from functools import partial
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from hiddpg.agents import make_agent
+from hiddpg.configs import TrainConfig
+from hiddpg.envs import make as make_env
+
+
+@struct.dataclass
+class RunState:
+    """Everything a run needs to continue: the agent's state, the key, episodes done."""
+
+    agent: Any
+    key: jax.Array
+    episode: jax.Array
+
+
+def seed_keys(seeds: list[int] | tuple[int, ...]) -> jax.Array:
+    """One PRNG key per seed (seed ``i`` always gets ``PRNGKey(i)``)."""
+    return jnp.stack([jax.random.PRNGKey(int(s)) for s in seeds])
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Trainer:
+    """Builds env and agent from a :class:`TrainConfig` and runs episodes in jitted chunks."""
+
+    config: TrainConfig
+
+    def __post_init__(self) -> None:
+        env, env_params = make_env(self.config.task, **self.config.env_overrides)
+        object.__setattr__(self, "env", env)
+        object.__setattr__(self, "env_params", env_params)
+        object.__setattr__(self, "agent", make_agent(self.config.algo, self.config.agent, env))
+
+    # -- pure, per seed ----------------------------------------------------------------------
+    def init(self, key: jax.Array) -> RunState:
+        key, init_key = jax.random.split(key)
+        agent_state = self.agent.init(init_key, self.env_params)
+        return RunState(agent=agent_state, key=key, episode=jnp.zeros((), jnp.int32))
+
+    def _train_block(self, state: RunState, n_train: int) -> tuple[RunState, dict, dict]:
+        """``n_train`` training episodes, then one evaluation episode."""
+
+        def episode(carry: RunState, _: Any) -> tuple[RunState, dict]:
+            key, ep_key = jax.random.split(carry.key)
+            agent_state, metrics = self.agent.train_episode(ep_key, carry.agent, self.env_params)
+            metrics = dict(metrics, episode=carry.episode + 1)
+            return RunState(agent_state, key, carry.episode + 1), metrics
+
+        state, train_metrics = jax.lax.scan(episode, state, None, length=n_train)
+        key, eval_key = jax.random.split(state.key)
+        eval_metrics, _ = self.agent.evaluate(eval_key, state.agent, self.env_params)
+        eval_metrics = dict(eval_metrics, episode=state.episode)
+        return state.replace(key=key), train_metrics, eval_metrics
+
+    def run_chunk(self, state: RunState, n_episodes: int) -> tuple[RunState, dict, dict]:
+        """Train ``n_episodes`` (a multiple of ``eval_every``, or fewer than it at the end).
+
+        Returns the new state, training metrics with a leading episode axis and evaluation
+        metrics with a leading axis of evaluations.
+        """
+        every = min(self.config.eval_every, n_episodes)
+        if n_episodes % every:
+            raise ValueError(
+                f"a chunk of {n_episodes} episodes is not a multiple of eval_every={every}"
+            )
+
+        def block(carry: RunState, _: Any) -> tuple[RunState, tuple[dict, dict]]:
+            carry, train_m, eval_m = self._train_block(carry, every)
+            return carry, (train_m, eval_m)
+
+        state, (train_m, eval_m) = jax.lax.scan(block, state, None, length=n_episodes // every)
+        train_m = jax.tree.map(lambda x: x.reshape((n_episodes,) + x.shape[2:]), train_m)
+        return state, train_m, eval_m
+
+    # -- batched over seeds, jitted ----------------------------------------------------------
+    @partial(jax.jit, static_argnums=0)
+    def init_seeds(self, keys: jax.Array) -> RunState:
+        return jax.vmap(self.init)(keys)
+
+    @partial(jax.jit, static_argnums=(0, 2), donate_argnums=1)
+    def run_chunk_seeds(self, state: RunState, n_episodes: int) -> tuple[RunState, dict, dict]:
+        return jax.vmap(lambda s: self.run_chunk(s, n_episodes))(state)
+
+    @partial(jax.jit, static_argnums=0)
+    def evaluate_seeds(self, state: RunState, keys: jax.Array) -> tuple[dict, dict]:
+        """Noise-free evaluation episode per seed, with trajectories (for plots and GIFs)."""
+        return jax.vmap(lambda a, k: self.agent.evaluate(k, a, self.env_params))(state.agent, keys)
+
+    def chunk_sizes(self, done: int = 0) -> list[int]:
+        """The chunk lengths that take a run from ``done`` episodes to ``config.episodes``.
+
+        Chunks are multiples of ``eval_every`` so that evaluations fall on the same episodes
+        however a run is cut; the boundaries depend only on the config, so a resumed run
+        executes exactly the chunks an uninterrupted one would.
+        """
+        cfg = self.config
+        chunk = max(cfg.eval_every, cfg.chunk_episodes // cfg.eval_every * cfg.eval_every)
+        sizes, start = [], 0
+        while start < cfg.episodes:
+            n = min(chunk, cfg.episodes - start)
+            if n > cfg.eval_every and n % cfg.eval_every:
+                n -= n % cfg.eval_every
+            sizes.append(n)
+            start += n
+        bounds = [0]
+        for n in sizes:
+            bounds.append(bounds[-1] + n)
+        if done not in bounds:
+            raise ValueError(f"{done} episodes done is not a chunk boundary of this config")
+        return sizes[bounds.index(done):]
+
+
+def make_train(config: TrainConfig):
+    """``train(key) -> (RunState, train_metrics, eval_metrics)`` for one seed, pure and
+    jittable: ``jax.jit(jax.vmap(make_train(cfg)))(seed_keys(range(15)))`` trains 15 seeds."""
+    trainer = Trainer(config)
+
+    def train(key: jax.Array):
+        state = trainer.init(key)
+        train_ms, eval_ms = [], []
+        for n in trainer.chunk_sizes():
+            state, tm, em = trainer.run_chunk(state, n)
+            train_ms.append(tm)
+            eval_ms.append(em)
+        cat = lambda *xs: jnp.concatenate(xs)  # noqa: E731
+        return state, jax.tree.map(cat, *train_ms), jax.tree.map(cat, *eval_ms)
+
+    return train
