@@ -88,6 +88,12 @@ class DDPGConfig:
     learning_starts: int = 1000
     """Environment steps of uniformly random actions before learning starts [decision]."""
     noise: NoiseConfig = field(default_factory=NoiseConfig)
+    invert_gradients: bool = False
+    """Damp the actor's action gradient near the bounds of its box (Hausknecht & Stone 2016)
+    [decision; False = the paper's plain DPG]."""
+    action_l2: float = 0.0
+    """Penalty weight on the squared unit action in the actor's objective (Andrychowicz et
+    al. 2017) [decision; 0 = the paper's plain DPG]."""
     lr_decay: float = 1.0
     """Learning rates are multiplied by this every ``lr_decay_every`` episodes (1 = off)."""
     lr_decay_every: int = 50
@@ -122,6 +128,9 @@ class LevelConfig:
     invert_gradients: bool = False
     """Damp the actor's action gradient near the bounds of its box so that ``tanh`` does not
     saturate (Hausknecht & Stone 2016) [decision; False = the paper's plain DPG]."""
+    action_l2: float = 0.0
+    """Penalty weight on the squared unit action in the actor's objective (Andrychowicz et
+    al. 2017) [decision; 0 = the paper's plain DPG]."""
 
     def __post_init__(self) -> None:
         _hidden(self)

@@ -27,6 +27,11 @@ from hiddpg.envs import task_name
 
 PRESETS = ("paper", "quick")
 
+#: Stabilisers on top of the spec's defaults, in both presets [decision]: measured on
+#: PuckTrajectory1 (docs/algorithms.md, "Decisions that make learning work"): without them the
+#: actors' tanh saturates within a few hundred episodes and DDPG/HI-DDPG returns collapse.
+STABILIZE = {"tau": 0.01, "action_l2": 1.0}
+
 
 def task_family(task: str) -> str:
     """``"puck"`` or ``"arm"``."""
@@ -40,18 +45,21 @@ def _paper_agent(algo: str, task: str) -> Any:
     noise = NoiseConfig(sigma=0.15 if arm else 0.1)
     if algo == "ddpg":
         return DDPGConfig(hidden=hidden, noise=noise, buffer_size=100_000,
-                          lr_decay=0.99 if arm else 1.0)
+                          lr_decay=0.99 if arm else 1.0, action_l2=STABILIZE["action_l2"],
+                          tau=STABILIZE["tau"])
     if algo in ("hi-ddpg", "hi-ddpg-wo-model"):
         high = LevelConfig(hidden=hidden, lr=5e-5 if arm else 2e-5, gamma=0.99,
-                           buffer_size=1_000_000 if arm else 100_000, noise=noise)
+                           buffer_size=1_000_000 if arm else 100_000, noise=noise,
+                           tau=STABILIZE["tau"], invert_gradients=True)
         low = LevelConfig(hidden=hidden, lr=5e-4 if arm else 2e-4, gamma=0.95,
-                          buffer_size=100_000 if arm else 10_000, noise=noise)
+                          buffer_size=100_000 if arm else 10_000, noise=noise,
+                          tau=STABILIZE["tau"], action_l2=STABILIZE["action_l2"])
         return HIDDPGConfig(
             high=high, low=low,
             duration_min=2.0 if arm else 1.0, duration_max=40.0 if arm else 30.0,
             switch_cost=10.0 if name.startswith("PuckTrajectory") else 0.0,
             pretrain_episodes=1000 if arm else 0,
-            lr_decay=0.99 if arm else 1.0,
+            lr_decay=0.99 if arm else 1.0, high_update_on="step",
         )
     raise ValueError(f"no paper preset for algorithm {algo!r} yet")
 
@@ -69,7 +77,7 @@ def _quick_agent(algo: str, task: str) -> Any:
                                      batch_size=32),
             low=dataclasses.replace(agent.low, hidden=hidden, lr=1e-3, buffer_size=10_000),
             learning_starts=300, high_learning_starts=32,
-            pretrain_episodes=min(agent.pretrain_episodes, 50),
+            pretrain_episodes=300 if task_family(task) == "puck" else 200,
         )
     return agent
 
@@ -78,8 +86,8 @@ def _quick_agent(algo: str, task: str) -> Any:
 _BUDGETS = {
     ("paper", "puck"): (3000, 20, 200),
     ("paper", "arm"): (3000, 20, 100),
-    ("quick", "puck"): (300, 10, 100),
-    ("quick", "arm"): (300, 10, 50),
+    ("quick", "puck"): (1000, 10, 100),
+    ("quick", "arm"): (600, 10, 100),
 }
 
 

@@ -92,6 +92,9 @@ class DDPGBlock:
         tau: Polyak rate of the target networks.
         invert_gradients: bound the action gradient near the box edges
             (:func:`invert_gradients`) [decision; off = plain DDPG].
+        action_l2: weight of a penalty ``action_l2 · |μ(s)|²`` on the unit action in the actor's
+            objective (as in Andrychowicz et al. 2017's DDPG), keeping ``tanh`` out of
+            saturation [decision; 0 = plain DDPG].
     """
 
     obs_dim: int
@@ -102,6 +105,7 @@ class DDPGBlock:
     gamma: float
     tau: float
     invert_gradients: bool = False
+    action_l2: float = 0.0
     actor_net: Actor = field(init=False, repr=False, compare=False)
     critic_net: Critic = field(init=False, repr=False, compare=False)
     actor_tx: optax.GradientTransformation = field(init=False, repr=False, compare=False)
@@ -199,6 +203,8 @@ class DDPGBlock:
         q, dq_da = self.action_gradient(state.critic, obs, action)
         if extra_dq_da is not None:
             dq_da = dq_da + extra_dq_da(obs, action)
+        if self.action_l2:
+            dq_da = dq_da - 2.0 * self.action_l2 * action
         if self.invert_gradients:
             dq_da = invert_gradients(dq_da, action)
         dq_da = jax.lax.stop_gradient(dq_da)

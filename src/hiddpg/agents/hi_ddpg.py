@@ -12,7 +12,8 @@ high-level update is gated by the segment end. One episode is a ``lax.scan`` ove
 
 Phases (spec §2): the first ``learning_starts`` environment steps use uniformly random goals,
 durations and actions; during the first ``pretrain_episodes`` episodes the high level is
-bypassed (uniformly random goals and durations) and only the low level learns.
+bypassed (uniformly random goals and durations) and only the low level learns; ``D_H`` stores
+no segments then, because their returns were earned by a low level that has since changed.
 """
 
 from __future__ import annotations
@@ -180,7 +181,7 @@ class HIDDPG:
             high_tr = {"s": seg_obs, "c": jnp.zeros((0,)), "a": high_action, "r": f,
                        "s2": res.obs, "terminated": res.terminated}
             agent = agent.replace(low=low.store(agent.low, low_tr, alive),
-                                  high=high.store(agent.high, high_tr, seg_end))
+                                  high=high.store(agent.high, high_tr, seg_end & ~pretrain))
             started = agent.env_steps >= c.learning_starts
             learn_low = alive & started
             high_tick = seg_end if c.high_update_on == "segment" else alive

@@ -5,8 +5,10 @@
   jittable and vmappable (spec ``algorithms.md`` §5).
 * :func:`goal_tracking_cost`, :func:`target_reaching_cost` — cost builders.
 * :func:`solve_task` — iLQR on any hiddpg environment through its ``dynamics`` and goal space.
+* :func:`box_qp` — the box-constrained QP that handles the action bounds.
 """
 
+from hiddpg.control.box_qp import box_qp
 from hiddpg.control.costs import (
     Cost,
     goal_schedule,
@@ -18,7 +20,6 @@ from hiddpg.control.ilqr import (
     Derivatives,
     ILQRConfig,
     ILQRResult,
-    box_qp,
     ilqr,
     linearize,
 )

@@ -7,10 +7,14 @@ The solver minimises ``J = sum_{t<T} l(x_t, u_t, t) + l_f(x_T)`` subject to
 1. **Linearise / quadratise** around the nominal trajectory: ``f_x, f_u`` by ``jax.jacfwd``;
    ``l_x, l_u`` by ``jax.grad`` and ``l_xx, l_ux, l_uu`` by ``jax.hessian`` (exact for the
    quadratic costs of :mod:`hiddpg.control.costs`). Second derivatives of ``f`` are dropped:
-   iLQR, not DDP.
+   iLQR, not DDP. With bounds, ``f`` is differentiated at the actions moved a hair
+   (``bound_margin``) inside the box, so that an action on a bound sees the one-sided
+   derivative of a ``jnp.clip`` inside the dynamics rather than JAX's ½. Derivatives are only
+   recomputed after an accepted step.
 2. **Backward pass** (``lax.scan`` in reverse) on ``Q(δx, δu)`` with the Levenberg–Marquardt
-   term ``Q_uu + μ I``. Without bounds ``δu = k + K δx`` comes from a Cholesky solve. With bounds
-   it comes from a small **box-QP** per step (:func:`box_qp`, projected Newton): the
+   term ``Q_uu + μ I``. Without bounds ``δu = k + K δx`` comes from a linear solve. With bounds
+   it comes from a small **box-QP** per step (:func:`hiddpg.control.box_qp.box_qp`, projected
+   Newton; rather than clamping alone, so gains and predicted decrease know the bounds): the
    feed-forward ``k`` solves ``min_k ½ k'Q_uu k + Q_u'k`` s.t. ``low - ū_t <= k <= high - ū_t``
    and the rows of ``K`` of clamped actions are zero. ``Q_uu + μ I`` not positive definite
    counts as a failed iteration.
@@ -35,6 +39,8 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+
+from hiddpg.control.box_qp import box_qp, masked_hessian
 
 Dynamics = Callable[[jax.Array, jax.Array], jax.Array]
 RunningCost = Callable[[jax.Array, jax.Array, jax.Array], jax.Array]
@@ -161,53 +167,6 @@ def linearize(
                        jax.hessian(final_cost)(states[-1]))
 
 
-def _masked_hessian(H: jax.Array, free: jax.Array) -> jax.Array:
-    """``H`` restricted to the free block, identity on the clamped entries."""
-    return jnp.where(free[:, None] & free[None, :], H, 0.0) + jnp.diag(~free).astype(H.dtype)
-
-
-def _clamped(x: jax.Array, grad: jax.Array, lower: jax.Array, upper: jax.Array) -> jax.Array:
-    return ((x <= lower) & (grad > 0.0)) | ((x >= upper) & (grad < 0.0))
-
-
-def box_qp(
-    H: jax.Array, g: jax.Array, lower: jax.Array, upper: jax.Array,
-    iterations: int = 20, steps: int = 10, armijo: float = 0.1, tolerance: float = 1e-7,
-) -> tuple[jax.Array, jax.Array]:
-    """``min_x ½ x'Hx + g'x`` s.t. ``lower <= x <= upper`` by projected Newton (Bertsekas 1982,
-    as in Tassa et al. 2014), started at ``clip(0, lower, upper)``.
-
-    Each iteration fixes the clamped set (at a bound with the gradient pushing outwards), takes a
-    Newton step on the free entries and a projected Armijo line search over ``steps`` halvings
-    (sufficient-decrease factor ``armijo``); it stops after ``iterations``, when no step
-    decreases the objective, or when the free gradient is below ``tolerance · (1 + max|g|)``.
-    ``H`` must be positive definite. Returns ``(x, free)``: the minimiser and the mask of the
-    entries not clamped at the solution.
-    """
-    def objective(x):
-        return 0.5 * x @ H @ x + g @ x
-
-    def body(carry):
-        x, i, _ = carry
-        grad = g + H @ x
-        free = ~_clamped(x, grad, lower, upper)
-        direction = -jnp.linalg.solve(_masked_hessian(H, free), jnp.where(free, grad, 0.0))
-        sizes = 0.5 ** jnp.arange(steps, dtype=x.dtype)
-        trials = jnp.clip(x + sizes[:, None] * direction, lower, upper)
-        gains = jax.vmap(objective)(trials) - objective(x)
-        ok = gains <= armijo * (trials - x) @ grad
-        found = jnp.any(ok) & (jnp.max(jnp.abs(direction)) > 0.0)
-        x_new = jnp.where(found, trials[jnp.argmax(ok)], x)
-        small = jnp.max(jnp.abs(jnp.where(free, grad, 0.0))) <= tolerance * (1.0 + jnp.abs(g).max())
-        return x_new, i + 1, ~found | small
-
-    x0 = jnp.clip(jnp.zeros_like(g), lower, upper)
-    x, _, _ = jax.lax.while_loop(
-        lambda c: (c[1] < iterations) & ~c[2], body, (x0, jnp.int32(0), jnp.bool_(False))
-    )
-    return x, ~_clamped(x, g + H @ x, lower, upper)
-
-
 def _backward_pass(
     d: Derivatives, actions: jax.Array, mu: jax.Array, low: jax.Array | None,
     high: jax.Array | None, config: ILQRConfig,
@@ -232,7 +191,7 @@ def _backward_pass(
             K = -jnp.linalg.solve(h, qux)
         else:
             k, free = box_qp(h, qu, low - u, high - u, config.qp_iterations)
-            K = -jnp.linalg.solve(_masked_hessian(h, free), jnp.where(free[:, None], qux, 0.0))
+            K = -jnp.linalg.solve(masked_hessian(h, free), jnp.where(free[:, None], qux, 0.0))
         vx = qx + K.T @ quu @ k + K.T @ qu + qux.T @ k
         vxx = qxx + K.T @ quu @ K + K.T @ qux + qux.T @ K
         dv = jnp.stack([k @ qu, 0.5 * k @ quu @ k])
@@ -264,6 +223,9 @@ def _rollout(
 
 
 class _Loop(NamedTuple):
+    """The ``while_loop`` carry: nominal trajectory, its derivatives (``stale`` when the
+    trajectory changed since they were taken) and the solver's bookkeeping."""
+
     states: jax.Array
     actions: jax.Array
     cost: jax.Array
@@ -276,6 +238,45 @@ class _Loop(NamedTuple):
     converged: jax.Array
     done: jax.Array
     history: jax.Array
+
+
+class _Problem(NamedTuple):
+    """What one iteration needs besides the carry (closed over, not traced through)."""
+
+    rollout: Callable[..., tuple[jax.Array, jax.Array, jax.Array]]
+    derive: Callable[[jax.Array, jax.Array], Derivatives]
+    low: jax.Array | None
+    high: jax.Array | None
+    alphas: jax.Array
+    config: ILQRConfig
+
+
+def _iteration(s: _Loop, p: _Problem) -> _Loop:
+    """One backward pass, line search and regularisation update (module docstring, 2–5)."""
+    config = p.config
+    derivatives = jax.lax.cond(s.stale, p.derive, lambda *_: s.derivatives, s.states, s.actions)
+    k, K, dv, ok = _backward_pass(derivatives, s.actions, s.mu, p.low, p.high, config)
+    threshold = config.tolerance * jnp.abs(s.cost)
+    optimal = ok & (-(dv[0] + dv[1]) <= threshold)
+    new_xs, new_us, new_cost = jax.vmap(p.rollout, (None, None, None, None, 0))(
+        s.states, s.actions, k, K, p.alphas)
+    expected = -(p.alphas * dv[0] + p.alphas**2 * dv[1])
+    actual = s.cost - new_cost
+    good = ok & jnp.isfinite(new_cost) & (actual > jnp.maximum(config.armijo * expected, 0.0))
+    best = jnp.argmax(good)
+    accept = jnp.any(good) & ~optimal
+    cost = jnp.where(accept, new_cost[best], s.cost)
+    converged = optimal | (accept & (actual[best] <= threshold))
+    success, f = accept | optimal, config.mu_factor
+    delta = jnp.where(success, jnp.minimum(1.0 / f, s.delta / f), jnp.maximum(f, s.delta * f))
+    mu = jnp.where(success, s.mu * delta, jnp.maximum(config.mu_min, s.mu * delta))
+    mu = jnp.where(success & (mu < config.mu_min), 0.0, mu)
+    iteration = s.iteration + 1
+    done = converged | (mu > config.mu_max) | (iteration >= config.max_iterations)
+    return _Loop(
+        jnp.where(accept, new_xs[best], s.states), jnp.where(accept, new_us[best], s.actions),
+        cost, derivatives, accept, jnp.where(ok, K, s.gains), mu, delta, iteration, converged,
+        done, s.history.at[iteration].set(cost))
 
 
 def ilqr(
@@ -299,61 +300,34 @@ def ilqr(
     """
     if (action_low is None) != (action_high is None):
         raise ValueError("give both action_low and action_high, or neither")
-    x0, u_init = jnp.asarray(x0), jnp.asarray(u_init, dtype=jnp.asarray(x0).dtype)
-    dtype, (horizon, m) = x0.dtype, u_init.shape
-    low = high = None
+    x0 = jnp.asarray(x0)
+    dtype, n = x0.dtype, x0.shape[0]
+    u_init = jnp.asarray(u_init, dtype)
+    horizon, m = u_init.shape
+    low = high = inside = None
     if action_low is not None:
         low = jnp.broadcast_to(jnp.asarray(action_low, dtype), (m,))
         high = jnp.broadcast_to(jnp.asarray(action_high, dtype), (m,))
         u_init = jnp.clip(u_init, low, high)
-    n = x0.shape[0]
-    zero_k, zero_K = jnp.zeros((horizon, m), dtype), jnp.zeros((horizon, m, n), dtype)
-    nominal = jnp.zeros((horizon + 1, n), dtype)
-    rollout = lambda xs, us, k, K, a: _rollout(  # noqa: E731
-        dynamics, running_cost, final_cost, x0, xs, us, k, K, a, low, high)
-    def derive(xs: jax.Array, us: jax.Array) -> Derivatives:
-        inside = None
-        if low is not None:
-            margin = config.bound_margin * (high - low)
-            inside = jnp.clip(us, low + margin, high - margin)
-        return linearize(dynamics, running_cost, final_cost, xs, us, inside)
-
-    xs, us, cost = rollout(nominal, u_init, zero_k, zero_K, jnp.zeros((), dtype))
-    alphas = config.line_search_decay ** jnp.arange(config.line_search_steps, dtype=dtype)
-
-    def body(s: _Loop) -> _Loop:
-        derivatives = jax.lax.cond(
-            s.stale, derive, lambda *_: s.derivatives, s.states, s.actions)
-        k, K, dv, ok = _backward_pass(derivatives, s.actions, s.mu, low, high, config)
-        threshold = config.tolerance * jnp.abs(s.cost)
-        optimal = ok & (-(dv[0] + dv[1]) <= threshold)
-        new_xs, new_us, new_cost = jax.vmap(rollout, (None, None, None, None, 0))(
-            s.states, s.actions, k, K, alphas)
-        expected = -(alphas * dv[0] + alphas**2 * dv[1])
-        actual = s.cost - new_cost
-        good = ok & jnp.isfinite(new_cost) & (actual > jnp.maximum(config.armijo * expected, 0.0))
-        best = jnp.argmax(good)
-        accept = jnp.any(good) & ~optimal
-        states = jnp.where(accept, new_xs[best], s.states)
-        actions = jnp.where(accept, new_us[best], s.actions)
-        cost = jnp.where(accept, new_cost[best], s.cost)
-        converged = optimal | (accept & (actual[best] <= threshold))
-        success = accept | optimal
-        f = config.mu_factor
-        delta = jnp.where(success, jnp.minimum(1.0 / f, s.delta / f), jnp.maximum(f, s.delta * f))
-        mu = jnp.where(success, s.mu * delta, jnp.maximum(config.mu_min, s.mu * delta))
-        mu = jnp.where(success & (mu < config.mu_min), 0.0, mu)
-        iteration = s.iteration + 1
-        done = converged | (mu > config.mu_max) | (iteration >= config.max_iterations)
-        return _Loop(states, actions, cost, derivatives, accept, jnp.where(ok, K, s.gains), mu,
-                     delta, iteration, converged, done, s.history.at[iteration].set(cost))
-
+        margin = config.bound_margin * (high - low)
+        inside = lambda us: jnp.clip(us, low + margin, high - margin)  # noqa: E731
+    p = _Problem(
+        rollout=lambda xs, us, k, K, a: _rollout(
+            dynamics, running_cost, final_cost, x0, xs, us, k, K, a, low, high),
+        derive=lambda xs, us: linearize(dynamics, running_cost, final_cost, xs, us,
+                                        None if inside is None else inside(us)),
+        low=low, high=high, config=config,
+        alphas=config.line_search_decay ** jnp.arange(config.line_search_steps, dtype=dtype),
+    )
+    zero_K = jnp.zeros((horizon, m, n), dtype)
+    xs, us, cost = p.rollout(jnp.zeros((horizon + 1, n), dtype), u_init,
+                             jnp.zeros((horizon, m), dtype), zero_K, jnp.zeros((), dtype))
+    placeholder = jax.tree.map(lambda a: jnp.zeros(a.shape, a.dtype),
+                               jax.eval_shape(p.derive, xs, us))
     history = jnp.full((config.max_iterations + 1,), jnp.nan, dtype).at[0].set(cost)
-    placeholder = jax.tree.map(
-        lambda a: jnp.zeros(a.shape, a.dtype), jax.eval_shape(derive, xs, us))
     start = _Loop(xs, us, cost, placeholder, jnp.bool_(True), zero_K,
-                  jnp.asarray(config.mu_init, dtype),
-                  jnp.ones((), dtype), jnp.int32(0), jnp.bool_(False), jnp.bool_(False), history)
-    s = jax.lax.while_loop(lambda s: ~s.done, body, start)
+                  jnp.asarray(config.mu_init, dtype), jnp.ones((), dtype), jnp.int32(0),
+                  jnp.bool_(False), jnp.bool_(False), history)
+    s = jax.lax.while_loop(lambda s: ~s.done, lambda s: _iteration(s, p), start)
     return ILQRResult(s.states, s.actions, s.cost, s.iteration, s.converged, s.history,
                       s.gains, s.mu)
