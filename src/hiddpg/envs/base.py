@@ -60,7 +60,7 @@ class GoalSpace:
                 f"GoalSpace: indices, low and high must have the same length, got "
                 f"{n}, {len(self.low)}, {len(self.high)}"
             )
-        for i, (lo, hi) in enumerate(zip(self.low, self.high)):
+        for i, (lo, hi) in enumerate(zip(self.low, self.high, strict=True)):
             if not lo < hi:
                 raise ValueError(f"GoalSpace: low[{i}]={lo} must be below high[{i}]={hi}")
         if len(set(self.indices)) != n or min(self.indices) < 0:
