@@ -22,7 +22,14 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from hiddpg.envs.base import Environment, GoalSpace, StepResult, check_range, replace_params
+from hiddpg.envs.base import (
+    Environment,
+    GoalSpace,
+    StepResult,
+    check_range,
+    clip,
+    replace_params,
+)
 from hiddpg.envs.lqr import discounted_lqr
 
 STATE_DIM = 4
@@ -142,7 +149,7 @@ def dynamics(x: jax.Array, action: jax.Array, params: PuckParams) -> jax.Array:
     """One control period ``s' = s + dt (A s + B F)``, ``F = force_max * clip(action, -1, 1)``
     (the result keeps the dtype of ``x``)."""
     A, B = continuous_matrices(params.damping, x.dtype)
-    force = params.force_max * jnp.clip(action, -1.0, 1.0)
+    force = params.force_max * clip(action, -1.0, 1.0)
     return (x + params.dt * (A @ x + B @ force)).astype(x.dtype)
 
 
