@@ -18,6 +18,7 @@ from typing import Any
 from hiddpg.configs import (
     ALGORITHMS,
     DDPGConfig,
+    HDDPGConfig,
     HIDDPGConfig,
     LevelConfig,
     NoiseConfig,
@@ -61,6 +62,11 @@ def _paper_agent(algo: str, task: str) -> Any:
             pretrain_episodes=1000 if arm else 0,
             lr_decay=0.99 if arm else 1.0, high_update_on="step",
         )
+    if algo == "h-ddpg":
+        skill = DDPGConfig(hidden=hidden, noise=noise, buffer_size=100_000, gamma=0.99,
+                           lr_decay=0.99 if arm else 1.0, action_l2=STABILIZE["action_l2"],
+                           tau=STABILIZE["tau"])
+        return HDDPGConfig(skill=skill, meta_hidden=hidden)
     raise ValueError(f"no paper preset for algorithm {algo!r} yet")
 
 
@@ -79,6 +85,11 @@ def _quick_agent(algo: str, task: str) -> Any:
             learning_starts=300, high_learning_starts=32,
             pretrain_episodes=300 if task_family(task) == "puck" else 200,
         )
+    if isinstance(agent, HDDPGConfig):
+        skill = dataclasses.replace(agent.skill, hidden=hidden, actor_lr=1e-3, critic_lr=1e-3,
+                                    buffer_size=20_000, learning_starts=300)
+        return dataclasses.replace(agent, skill=skill, meta_hidden=hidden, meta_lr=1e-3,
+                                   meta_buffer_size=20_000)
     return agent
 
 
@@ -104,7 +115,14 @@ def make_config(
     episodes, eval_every, chunk = _BUDGETS[(preset, task_family(task))]
     cfg = TrainConfig(algo=algo, task=task, agent=agent, episodes=episodes,
                       eval_every=eval_every, chunk_episodes=chunk, preset=preset)
-    return apply_overrides(cfg, sets)
+    cfg = apply_overrides(cfg, sets)
+    if isinstance(cfg.agent, HDDPGConfig) and not any(
+            s.strip().startswith("agent.epsilon_decay_episodes") for s in sets):
+        # ε decays over the first epsilon_fraction of *this* run's episodes (spec §4)
+        decay = max(1, round(cfg.agent.epsilon_fraction * cfg.episodes))
+        cfg = dataclasses.replace(
+            cfg, agent=dataclasses.replace(cfg.agent, epsilon_decay_episodes=decay))
+    return cfg
 
 
 def apply_overrides(cfg: TrainConfig, sets: list[str] | tuple[str, ...]) -> TrainConfig:

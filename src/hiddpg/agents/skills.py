@@ -151,7 +151,7 @@ def skill_patterns(env: Any, puck_max_speed: float = 3.0) -> SkillPatterns:
     if isinstance(env, ArmReach | ArmObstacle):
         return ArmSkills()
     raise ValueError(
-        f"h-DDPG has no skill patterns for {getattr(env, 'name', env)!r}; patterns exist for "
+        f"h-DDPG has no skill patterns for {type(env).__name__}; patterns exist for "
         "the PuckWorld tasks (PuckTrajectory1-3, PuckObstacle: velocity along ±x, ±y) and the "
         "arm tasks (ArmReach, ArmObstacle: S-F/Eb-F, S-F/Eb-Ex, S-Ex/Eb-F, S-Ex/Eb-Ex)"
     )

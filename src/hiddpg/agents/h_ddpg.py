@@ -1,0 +1,333 @@
+"""h-DDPG: a meta-critic choosing among K DDPG skills every step (paper §III-C; spec §4).
+
+The paper's baseline, after Yang et al. (2018), as the paper adapts it:
+
+* ``K = 4`` basic skills, each a :class:`~hiddpg.agents.block.DDPGBlock` whose unit output is
+  turned into an environment action by its built-in movement pattern
+  (:mod:`hiddpg.agents.skills`: velocity along ±x/±y on PuckWorld, agonist activations on the
+  arm). No high-level actor.
+* A meta-critic ``Q_meta(s) ∈ R^K`` (an MLP) picks the skill **every step** ε-greedily, ε
+  falling linearly from ``epsilon_start`` to ``epsilon_end`` over ``epsilon_decay_episodes``
+  episodes (:func:`epsilon_schedule`). It is trained like a DQN on the environment reward:
+  replay of ``(s, k, r, s', terminated)``, target ``r + γ (1 − terminated) max_k' Q'(s', k')``
+  with a Polyak-averaged target network, squared error [decision: MSE as the DDPG critics].
+* Each skill is trained by DDPG (critic eq. 3, actor eq. 2) on the environment reward [paper:
+  "the basic reward in h-DDPG directly came from the environment"], from its own replay of the
+  transitions in which it was chosen (masked inserts).
+
+Decisions. The skills' parameters, optimiser states and replays are stacked along a leading
+skill axis and updated with ``vmap`` (one compiled DDPG update for all skills). **Every skill
+whose replay holds at least a batch is updated at every environment step**, not only the chosen
+one: under ``vmap`` both cost the same, and a skill keeps learning from its data while it is not
+chosen, so rarely chosen skills are not left behind. The actors share one output size (the
+largest skill's); a skill with fewer agonists ignores its extra outputs (the critic sees them
+and learns that they do not matter). One OU process, reset every episode, perturbs the acting
+skill's unit output. The first ``skill.learning_starts`` environment steps use uniformly random
+skills and unit outputs; nothing learns before. Learning rates of the skills decay by
+``skill.lr_decay`` every ``skill.lr_decay_every`` episodes; the meta-critic's stays constant.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import optax
+from flax import struct
+
+from hiddpg.agents import buffer as replay
+from hiddpg.agents import noise
+from hiddpg.agents.block import BlockState, DDPGBlock
+from hiddpg.agents.networks import FINAL_INIT_SCALE, MLP
+from hiddpg.agents.skills import SkillPatterns, skill_patterns
+from hiddpg.configs import HDDPGConfig
+from hiddpg.envs.base import Environment
+
+
+# -- the pieces that tests check on their own ---------------------------------------------------
+def epsilon_schedule(episode: jax.Array, start: float, end: float, decay_episodes: int):
+    """ε of episode ``episode`` (0-based): linear from ``start`` (episode 0) to ``end`` (episode
+    ``decay_episodes`` and after) [spec §4]."""
+    frac = jnp.clip(jnp.asarray(episode, jnp.float32) / decay_episodes, 0.0, 1.0)
+    return start + (end - start) * frac
+
+
+def epsilon_greedy(key: jax.Array, q: jax.Array, epsilon: jax.Array) -> jax.Array:
+    """With probability ``epsilon`` a uniformly random skill, otherwise ``argmax q`` (int32)."""
+    k_explore, k_skill = jax.random.split(key)
+    random_skill = jax.random.randint(k_skill, (), 0, q.shape[-1])
+    explore = jax.random.uniform(k_explore) < epsilon
+    return jnp.where(explore, random_skill, jnp.argmax(q, axis=-1)).astype(jnp.int32)
+
+
+def count_switches(skill: jax.Array, alive: jax.Array) -> jax.Array:
+    """Skill changes between consecutive steps of the episode (``alive`` masks the steps after
+    its end): comparable to HI-DDPG's goal switches (goals after the first)."""
+    alive = jnp.asarray(alive, bool)
+    changed = (skill[1:] != skill[:-1]) & alive[1:] & alive[:-1]
+    return jnp.sum(changed).astype(jnp.int32)
+
+
+def _select(pred: jax.Array, new: Any, old: Any) -> Any:
+    return jax.tree_util.tree_map(lambda n, o: jnp.where(pred, n, o), new, old)
+
+
+@struct.dataclass
+class MetaState:
+    """The meta-critic: online and target parameters and the Adam state."""
+
+    params: Any
+    target: Any
+    opt: Any
+
+
+@struct.dataclass
+class HDDPGState:
+    """Everything h-DDPG carries between episodes.
+
+    Attributes:
+        skills: the K skills' :class:`BlockState`, every leaf with a leading skill axis.
+        skill_buffers: the K skills' replays (leading skill axis; keys ``obs, action, reward,
+            next_obs, terminated``, ``action`` the skill's unit output).
+        meta: the meta-critic.
+        meta_buffer: replay of ``obs, skill, reward, next_obs, terminated``.
+        env_steps: int32 environment steps of the run; episodes: int32 episodes finished.
+    """
+
+    skills: BlockState
+    skill_buffers: replay.ReplayBuffer
+    meta: MetaState
+    meta_buffer: replay.ReplayBuffer
+    env_steps: jax.Array
+    episodes: jax.Array
+
+
+@struct.dataclass
+class _Carry:
+    agent: HDDPGState
+    obs: jax.Array
+    env_state: Any
+    noise: noise.NoiseState
+    alive: jax.Array
+    sums: dict
+
+
+#: per-episode sums: the return, then what :meth:`HDDPG._learn` adds up, in its order.
+_SUMS = ("ret", "meta_loss", "skill_critic_loss", "skill_actor_loss", "meta_updates",
+         "skill_updates")
+
+
+@dataclasses.dataclass(frozen=True)
+class HDDPG:
+    """h-DDPG on one environment (an :class:`~hiddpg.agents.base.Agent`; see module docstring).
+    Build with :func:`make_hddpg`."""
+
+    config: HDDPGConfig
+    env: Environment
+    patterns: SkillPatterns
+    block: DDPGBlock = dataclasses.field(init=False, repr=False, compare=False)
+    meta_net: MLP = dataclasses.field(init=False, repr=False, compare=False)
+    meta_tx: optax.GradientTransformation = dataclasses.field(init=False, repr=False,
+                                                              compare=False)
+
+    def __post_init__(self) -> None:
+        c, s = self.config, self.config.skill
+        setattr_ = object.__setattr__
+        setattr_(self, "block", DDPGBlock(
+            obs_dim=self.env.obs_dim, action_dim=self.patterns.actor_dim, hidden=s.hidden,
+            actor_lr=s.actor_lr, critic_lr=s.critic_lr, gamma=s.gamma, tau=s.tau,
+            invert_gradients=s.invert_gradients, action_l2=s.action_l2))
+        setattr_(self, "meta_net", MLP(c.meta_hidden, self.n_skills, FINAL_INIT_SCALE))
+        setattr_(self, "meta_tx", optax.adam(c.meta_lr))
+
+    @property
+    def n_skills(self) -> int:
+        return self.patterns.n_skills
+
+    # -- meta-critic (DQN) ------------------------------------------------------------------
+    def meta_q(self, params: Any, obs: jax.Array) -> jax.Array:
+        """``Q_meta(s) ∈ R^K`` (any leading batch shape)."""
+        return self.meta_net.apply(params, obs)
+
+    def epsilon(self, episodes: jax.Array) -> jax.Array:
+        c = self.config
+        return epsilon_schedule(episodes, c.epsilon_start, c.epsilon_end,
+                                c.epsilon_decay_episodes)
+
+    def meta_update(self, meta: MetaState, batch: dict) -> tuple[MetaState, jax.Array]:
+        """One Adam step on ``(r + γ (1 − terminated) max_k' Q'(s', k') − Q(s, k))²``, then the
+        Polyak update of the target network."""
+        c = self.config
+        next_q = self.meta_q(meta.target, batch["next_obs"]).max(axis=-1)
+        not_done = 1.0 - batch["terminated"].astype(jnp.float32)
+        y = jax.lax.stop_gradient(batch["reward"] + c.meta_gamma * not_done * next_q)
+
+        def loss_fn(params: Any) -> jax.Array:
+            q = self.meta_q(params, batch["obs"])
+            q_taken = jnp.take_along_axis(q, batch["skill"][:, None], axis=-1)[:, 0]
+            return jnp.mean((y - q_taken) ** 2)
+
+        loss, grads = jax.value_and_grad(loss_fn)(meta.params)
+        updates, opt = self.meta_tx.update(grads, meta.opt, meta.params)
+        params = optax.apply_updates(meta.params, updates)
+        target = jax.tree_util.tree_map(
+            lambda o, t: c.meta_tau * o + (1.0 - c.meta_tau) * t, params, meta.target)
+        return MetaState(params=params, target=target, opt=opt), loss
+
+    # -- skills (DDPG, vmapped over the skill axis) -------------------------------------------
+    def skill_units(self, skills: BlockState, obs: jax.Array) -> jax.Array:
+        """Every skill's unit output at ``obs``: ``(K, actor_dim)``."""
+        return jax.vmap(self.block.mu, in_axes=(0, None))(skills.actor, obs)
+
+    def skills_update(self, skills: BlockState, buffers: replay.ReplayBuffer, key: jax.Array):
+        """One DDPG step for every skill whose replay holds a batch: ``(skills, gate, metrics)``
+        with ``gate`` the ``(K,)`` mask of updated skills."""
+        batch_size = self.config.skill.batch_size
+        keys = jax.random.split(key, self.n_skills)
+        batches = jax.vmap(lambda b, k: replay.sample(b, k, batch_size))(buffers, keys)
+        new, metrics = jax.vmap(self.block.update)(skills, batches)
+        gate = buffers.size >= batch_size
+        return jax.vmap(_select)(gate, new, skills), gate, metrics
+
+    def _skill_learning_rates(self, skills: BlockState, episodes: jax.Array) -> BlockState:
+        s = self.config.skill
+        factor = jnp.float32(s.lr_decay) ** (episodes // s.lr_decay_every).astype(jnp.float32)
+        lrs = (s.actor_lr * factor, s.critic_lr * factor)
+        return jax.vmap(self.block.set_learning_rates, in_axes=(0, None, None))(skills, *lrs)
+
+    # -- the Agent protocol -------------------------------------------------------------------
+    def init(self, key: jax.Array, env_params: Any) -> HDDPGState:
+        """Fresh skills and meta-critic, empty replays, zero counters."""
+        del env_params
+        c, k = self.config, self.n_skills
+        k_skills, k_meta = jax.random.split(key)
+        obs = jnp.zeros((self.env.obs_dim,), jnp.float32)
+        f0, b0 = jnp.zeros((), jnp.float32), jnp.zeros((), bool)
+        skill_example = {"obs": obs, "action": jnp.zeros((self.patterns.actor_dim,)),
+                         "reward": f0, "next_obs": obs, "terminated": b0}
+        one = replay.init(skill_example, c.skill.buffer_size)
+        meta_example = {"obs": obs, "skill": jnp.zeros((), jnp.int32), "reward": f0,
+                        "next_obs": obs, "terminated": b0}
+        params = self.meta_net.init(k_meta, obs)
+        zero = jnp.zeros((), jnp.int32)
+        return HDDPGState(
+            skills=jax.vmap(self.block.init)(jax.random.split(k_skills, k)),
+            skill_buffers=jax.tree_util.tree_map(lambda x: jnp.stack([x] * k), one),
+            meta=MetaState(params=params, target=params, opt=self.meta_tx.init(params)),
+            meta_buffer=replay.init(meta_example, c.meta_buffer_size),
+            env_steps=zero, episodes=zero,
+        )
+
+    def _step(self, carry: _Carry, key: jax.Array, env_params: Any, epsilon: jax.Array,
+              train: bool) -> tuple[_Carry, dict]:
+        c, agent, obs = self.config, carry.agent, carry.obs
+        keys = jax.random.split(key, 6)
+        # 1. the meta-critic picks a skill (ε-greedy; greedy in evaluation)
+        random_phase = (agent.env_steps < c.skill.learning_starts) if train else False
+        eps = jnp.where(random_phase, 1.0, epsilon)
+        skill = epsilon_greedy(keys[0], self.meta_q(agent.meta.params, obs), eps)
+        # 2. the chosen skill's unit output (+ OU noise), through its movement pattern
+        unit = self.skill_units(agent.skills, obs)[skill]
+        noise_state = carry.noise
+        if train:
+            noise_state, n = noise.sample(c.skill.noise, carry.noise, keys[1])
+            uniform = jax.random.uniform(keys[2], unit.shape, jnp.float32, -1.0, 1.0)
+            unit = jnp.where(random_phase, uniform, jnp.clip(unit + n, -1.0, 1.0))
+        action = self.patterns.env_action(skill, unit, obs, env_params)
+        res = self.env.step(keys[3], carry.env_state, action, env_params)
+        alive = carry.alive
+        next_obs = jnp.asarray(res.obs, jnp.float32)
+        reward = jnp.where(alive, jnp.asarray(res.reward, jnp.float32), 0.0)
+        terminated = jnp.asarray(res.terminated, bool)
+        sums = dict(carry.sums, ret=carry.sums["ret"] + reward)
+        if train:  # 3. store and learn
+            agent = self._store(agent, obs, skill, unit, reward, next_obs, terminated, alive)
+            agent, sums = self._learn(agent, sums, keys[4], alive & ~random_phase)
+        ended = terminated | jnp.asarray(res.truncated, bool)
+        new = _Carry(
+            agent=agent, obs=jnp.where(alive, next_obs, obs),
+            env_state=_select(alive, res.state, carry.env_state), noise=noise_state,
+            alive=alive & ~ended, sums=sums,
+        )
+        out = {"obs": obs, "action": action, "reward": reward,
+               "alive": alive.astype(jnp.float32), "skill": skill}
+        return new, out
+
+    def _store(self, agent, obs, skill, unit, reward, next_obs, terminated, alive):
+        """Meta replay gets every step; skill ``k``'s replay only the steps it acted in."""
+        alive = jnp.asarray(alive, bool)
+        common = {"obs": obs, "reward": reward, "next_obs": next_obs, "terminated": terminated}
+        chosen = alive & (jnp.arange(self.n_skills) == skill)
+        skill_buffers = jax.vmap(replay.add, in_axes=(0, None, 0))(
+            agent.skill_buffers, dict(common, action=unit), chosen)
+        meta_buffer = replay.add(agent.meta_buffer, dict(common, skill=skill), alive)
+        return agent.replace(skill_buffers=skill_buffers, meta_buffer=meta_buffer,
+                             env_steps=agent.env_steps + alive.astype(jnp.int32))
+
+    def _learn(self, agent: HDDPGState, sums: dict, key: jax.Array, do_learn: jax.Array):
+        """Meta-critic and skill updates, skipped (``lax.cond``) when ``do_learn`` is false."""
+        k_meta, k_skills = jax.random.split(key)
+        f0 = jnp.zeros((), jnp.float32)
+
+        def learn(a: HDDPGState):
+            batch = replay.sample(a.meta_buffer, k_meta, self.config.meta_batch_size)
+            meta, meta_loss = self.meta_update(a.meta, batch)
+            skills, gate, m = self.skills_update(a.skills, a.skill_buffers, k_skills)
+            g = gate.astype(jnp.float32)
+            losses = (meta_loss, jnp.sum(m["critic_loss"] * g), jnp.sum(m["actor_loss"] * g),
+                      jnp.ones(()), jnp.sum(g))
+            return a.replace(meta=meta, skills=skills), losses
+
+        def skip(a: HDDPGState):
+            return a, (f0, f0, f0, f0, f0)
+
+        agent, losses = jax.lax.cond(do_learn, learn, skip, agent)
+        return agent, {**sums, **{n: sums[n] + v for n, v in zip(_SUMS[1:], losses, strict=True)}}
+
+    def _episode(self, key: jax.Array, state: HDDPGState, env_params: Any, train: bool):
+        k_reset, k_steps = jax.random.split(key)
+        obs, env_state = self.env.reset(k_reset, env_params)
+        if train:
+            state = state.replace(skills=self._skill_learning_rates(state.skills,
+                                                                    state.episodes))
+        epsilon = self.epsilon(state.episodes) if train else jnp.zeros((), jnp.float32)
+        carry = _Carry(
+            agent=state, obs=jnp.asarray(obs, jnp.float32), env_state=env_state,
+            noise=noise.init(self.config.skill.noise, self.patterns.actor_dim),
+            alive=jnp.ones((), bool), sums={n: jnp.zeros((), jnp.float32) for n in _SUMS},
+        )
+        step = lambda c, k: self._step(c, k, env_params, epsilon, train)
+        horizon = self.env.max_steps(env_params)
+        carry, traj = jax.lax.scan(step, carry, jax.random.split(k_steps, horizon))
+        s = carry.sums
+        metrics = {"return": s["ret"], "env_return": s["ret"],
+                   "length": traj["alive"].sum().astype(jnp.int32),
+                   "switches": count_switches(traj["skill"], traj["alive"])}
+        if train:
+            n_meta, n_skill = jnp.maximum(s["meta_updates"], 1), jnp.maximum(s["skill_updates"], 1)
+            metrics.update(meta_loss=s["meta_loss"] / n_meta,
+                           skill_critic_loss=s["skill_critic_loss"] / n_skill,
+                           skill_actor_loss=s["skill_actor_loss"] / n_skill,
+                           epsilon=epsilon, env_steps=carry.agent.env_steps)
+        return carry.agent, metrics, traj
+
+    def train_episode(self, key: jax.Array, state: HDDPGState, env_params: Any):
+        """One episode of ε-greedy skill choice, OU-perturbed skills, replay and learning."""
+        agent, metrics, _ = self._episode(key, state, env_params, train=True)
+        return agent.replace(episodes=agent.episodes + 1), metrics
+
+    def evaluate(self, key: jax.Array, state: HDDPGState, env_params: Any):
+        """A greedy, noise-free episode without learning: ``(metrics, trajectory)`` with ``obs``
+        (before each action), ``action`` (the env's normalised action), ``reward``, ``alive``
+        (1.0 while the episode runs) and ``skill`` (int32), each over the horizon."""
+        _, metrics, traj = self._episode(key, state, env_params, train=False)
+        return metrics, traj
+
+
+def make_hddpg(config: HDDPGConfig, env: Environment) -> HDDPG:
+    """h-DDPG for ``env`` (a task with skill patterns: PuckWorld or arm)."""
+    if not isinstance(config, HDDPGConfig):
+        raise TypeError(f"algorithm 'h-ddpg' needs a HDDPGConfig, got {type(config).__name__}")
+    return HDDPG(config, env, skill_patterns(env, config.puck_max_speed))
