@@ -1,0 +1,46 @@
+"""The engine: chunk boundaries, one compilation per chunk size, make_train == chunked Trainer."""
+
+import jax
+import numpy as np
+import pytest
+
+from hiddpg.presets import make_config
+from hiddpg.train import Trainer, make_train, seed_keys
+
+TINY = ["episodes=25", "eval_every=5", "chunk_episodes=10", "agent.hidden=[8,8]",
+        "agent.learning_starts=40", "agent.buffer_size=200", "agent.batch_size=8"]
+
+
+@pytest.fixture(scope="module")
+def trainer():
+    return Trainer(make_config("ddpg", "PuckTrajectory1", "quick", TINY))
+
+
+def test_chunk_sizes_fall_on_evaluation_boundaries(trainer):
+    assert trainer.chunk_sizes() == [10, 10, 5]
+    assert trainer.chunk_sizes(20) == [5]
+    with pytest.raises(ValueError, match="chunk boundary"):
+        trainer.chunk_sizes(7)
+    odd = Trainer(make_config("ddpg", "PuckTrajectory1", "quick",
+                              TINY + ["episodes=23", "chunk_episodes=12"]))
+    assert odd.chunk_sizes() == [10, 10, 3]
+
+
+def test_chunks_compile_once_per_size_and_match_make_train(trainer):
+    keys = seed_keys([3, 4])
+    state = trainer.init_seeds(keys)
+    train_ms, eval_ms = [], []
+    for n in trainer.chunk_sizes():
+        state, tm, em = trainer.run_chunk_seeds(state, n)
+        train_ms.append(tm)
+        eval_ms.append(em)
+    # two chunks of 10 and one of 5: two compilations, not three (no accidental retracing)
+    assert trainer.run_chunk_seeds._cache_size() == 2
+    returns = np.concatenate([np.asarray(m["return"]) for m in train_ms], axis=1)
+    assert returns.shape == (2, 25)
+    episodes = np.concatenate([np.asarray(m["episode"]) for m in eval_ms], axis=1)
+    np.testing.assert_array_equal(episodes[0], [5, 10, 15, 20, 25])
+
+    _, tm, em = jax.jit(jax.vmap(make_train(trainer.config)))(keys)
+    np.testing.assert_allclose(np.asarray(tm["return"]), returns, rtol=1e-5, atol=1e-5)
+    np.testing.assert_array_equal(np.asarray(em["episode"])[0], [5, 10, 15, 20, 25])
