@@ -33,7 +33,7 @@ from hiddpg.agents import buffer as replay
 from hiddpg.agents import noise
 from hiddpg.agents.block import BlockState, DDPGBlock
 from hiddpg.configs import DDPGConfig
-from hiddpg.envs.base import Environment
+from hiddpg.envs.base import Environment, affine_unit
 
 
 @struct.dataclass
@@ -96,7 +96,7 @@ class DDPGAgent:
         low, high = float(self.env.action_low), float(self.env.action_high)
         if (low, high) == (-1.0, 1.0):
             return unit
-        return low + (unit + 1.0) * 0.5 * (high - low)
+        return affine_unit(unit, low, high)
 
     def _learning_rates(self, episodes: jax.Array) -> tuple[jax.Array, jax.Array]:
         c = self.config

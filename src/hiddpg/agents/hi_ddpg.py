@@ -28,7 +28,7 @@ from flax import struct
 from hiddpg.agents import noise
 from hiddpg.agents.level import Level, LevelState
 from hiddpg.configs import HIDDPGConfig
-from hiddpg.envs.base import Environment
+from hiddpg.envs.base import Environment, affine_unit
 
 _LOSSES = ("critic_loss", "actor_loss", "model_loss")
 
@@ -87,12 +87,11 @@ class HIDDPG:
         space, c = self.env.goal_space, self.config
         goal = space.embed(space.scale(high_action[: self.goal_dim]), self.env.obs_dim)
         t_unit = high_action[self.goal_dim]
-        duration = c.duration_min + (t_unit + 1.0) * 0.5 * (c.duration_max - c.duration_min)
+        duration = affine_unit(t_unit, c.duration_min, c.duration_max)
         return goal, duration
 
     def env_action(self, unit: jax.Array) -> jax.Array:
-        lo, hi = self.env.action_low, self.env.action_high
-        return lo + (unit + 1.0) * 0.5 * (hi - lo)
+        return affine_unit(unit, self.env.action_low, self.env.action_high)
 
     def intrinsic_reward(self, next_obs: jax.Array, goal: jax.Array) -> jax.Array:
         """``r_int = -|P (s' - g)|_2`` (spec §2)."""
@@ -208,7 +207,8 @@ class HIDDPG:
         )
         traj = {"obs": carry.obs, "next_obs": res.obs, "action": self.env_action(action),
                 "reward": r_env, "alive": alive, "goal": env.goal_space.select(goal),
-                "switch": switch, "duration": duration, "intrinsic_reward": r_int}
+                "switch": switch, "duration": duration,
+                "intrinsic_reward": jnp.where(alive, r_int, 0.0)}
         return new, traj
 
     def _metrics(self, carry: _Carry) -> dict[str, jax.Array]:

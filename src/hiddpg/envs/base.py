@@ -81,8 +81,7 @@ class GoalSpace:
 
     def scale(self, unit: jax.Array) -> jax.Array:
         """Map ``[-1, 1]`` (a tanh output) affinely onto ``[low, high]``."""
-        lo, hi = jnp.asarray(self.low), jnp.asarray(self.high)
-        return lo + (unit + 1.0) * 0.5 * (hi - lo)
+        return affine_unit(unit, jnp.asarray(self.low), jnp.asarray(self.high))
 
     def unscale(self, free: jax.Array) -> jax.Array:
         """Inverse of :meth:`scale`."""
@@ -149,6 +148,12 @@ class Environment:
 
     def __eq__(self, other: object) -> bool:
         return type(self) is type(other)
+
+
+def affine_unit(unit: jax.Array, low: Any, high: Any) -> jax.Array:
+    """Map ``[-1, 1]`` onto ``[low, high]``, exact at both ends in floating point."""
+    w = (unit + 1.0) * 0.5
+    return low * (1.0 - w) + high * w
 
 
 def clip(x: jax.Array, low: Any, high: Any) -> jax.Array:
