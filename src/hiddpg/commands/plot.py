@@ -1,0 +1,90 @@
+"""``hiddpg plot``: the Fig. 7/8 comparison (curves and t-test tiles) for any runs.
+
+::
+
+    hiddpg plot RUN_DIR [RUN_DIR ...] [--out FILE] [--metric COLUMN] [--stages N]
+
+Each ``RUN_DIR`` is a run directory of ``hiddpg train`` or a directory holding such runs.
+Runs are labelled by their algorithm (with the directory name when two share one). Writes
+``FILE.png`` and ``FILE.pdf`` (default ``comparison``) and prints the final return per run and
+the last-stage tests as markdown.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+PROG = "hiddpg plot"
+
+
+class UsageError(ValueError):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise UsageError(message)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from hiddpg.experiments.comparison import METRIC, N_STAGES
+
+    p = _Parser(prog=PROG, description="Compare runs: mean ± std curves and Welch t-test "
+                "tiles over training stages (the paper's Figs. 7-8).")
+    p.add_argument("runs", nargs="+", metavar="RUN_DIR", help="run directories (or parents)")
+    p.add_argument("--out", default="comparison",
+                   help="output file without extension; .png and .pdf are written")
+    p.add_argument("--metric", default=METRIC,
+                   help=f"metrics.csv column to compare (default {METRIC}; e.g. env_return)")
+    p.add_argument("--stages", type=int, default=N_STAGES,
+                   help=f"training stages of the tiles (default {N_STAGES})")
+    p.add_argument("--title", default=None, help="figure title")
+    return p
+
+
+def _labels(runs: list) -> dict:
+    counts: dict[str, int] = {}
+    for r in runs:
+        counts[r.label] = counts.get(r.label, 0) + 1
+    out = {}
+    for r in runs:
+        label = r.label if counts[r.label] == 1 else f"{r.label} ({r.path.name})"
+        out[label] = r
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``hiddpg plot`` with ``argv``; returns the exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if {"-h", "--help"} & set(argv):
+        build_parser().print_help()
+        return 0
+    from hiddpg.experiments import comparison
+    from hiddpg.experiments.report import save_figure
+    from hiddpg.experiments.rundata import ExperimentError, discover_runs, load_run
+
+    try:
+        args = build_parser().parse_args(argv)
+        if args.stages < 1:
+            raise UsageError(f"--stages {args.stages} must be >= 1")
+        paths = discover_runs(args.runs)
+        if not paths:
+            raise UsageError(f"no run directories under {args.runs}")
+        runs = _labels([load_run(p) for p in paths])
+        comp = comparison.compare(runs, args.metric, args.stages)
+    except (UsageError, ValueError, ExperimentError, FileNotFoundError) as err:
+        print(f"{PROG}: error: {err}", file=sys.stderr)
+        return 2
+    tasks = sorted({r.config.task for r in runs.values()})
+    title = args.title or f"{', '.join(tasks)}: {' vs '.join(runs)}"
+    written = save_figure(comparison.plot_comparison(comp, title), Path(args.out))
+    print(comparison.summary_markdown(comparison.summary_numbers(comp)))
+    print(f"wrote {', '.join(map(str, written))}")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

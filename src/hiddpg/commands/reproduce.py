@@ -1,0 +1,106 @@
+"""``hiddpg reproduce``: the paper's Figures 3-8, with the numbers behind them in report.md.
+
+::
+
+    hiddpg reproduce {fig3,fig4,fig5,fig6,fig7,fig8,all} [--scale quick|paper] [--seeds N]
+                     [--out DIR] [--episodes N] [--set KEY=VALUE ...]
+
+Runs go to ``DIR/runs/<algo>-<task>/`` and are shared between figures; every run on disk is
+reused (a finished one as is, an interrupted one resumed), so an invocation that is killed
+continues where it stopped when run again. Figures go to ``DIR/figures/figN.png|pdf``, the
+report to ``DIR/report.md`` (default ``DIR``: ``results/<scale>``). ``--scale quick`` takes
+minutes; ``--scale paper`` (15 seeds, the paper's budgets) takes hours.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Callable, Sequence
+
+from hiddpg.experiments.common import SCALES, Context, budget_table
+from hiddpg.experiments.rundata import ExperimentError
+
+PROG = "hiddpg reproduce"
+FIGURES = ("fig3", "fig4", "fig5", "fig6", "fig7", "fig8")
+
+
+class UsageError(ValueError):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise UsageError(message)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog=PROG, formatter_class=argparse.RawDescriptionHelpFormatter,
+                description="Reproduce the paper's figures; reuse or resume runs on disk.",
+                epilog="budgets per scale:\n" + budget_table())
+    p.add_argument("figure", choices=(*FIGURES, "all"), help="which figure, or all")
+    p.add_argument("--scale", choices=SCALES, default="quick",
+                   help="quick (minutes, default) or paper (15 seeds, hours; resumable)")
+    p.add_argument("--seeds", type=int, default=None,
+                   help="runs per method (seeds 0..N-1; default: the scale's)")
+    p.add_argument("--out", default=None, help="output directory (default results/<scale>)")
+    p.add_argument("--episodes", type=int, default=None,
+                   help="training episodes of every run (default: the scale's budget)")
+    p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
+                   help="config override for every run, as in `hiddpg train`; "
+                        "agent.hidden=[..] sets every hidden-size field")
+    p.add_argument("--tasks", default=None, help=argparse.SUPPRESS)  # tests: Figs. 4-5 tasks
+    return p
+
+
+def _runners() -> dict[str, Callable]:
+    from hiddpg.experiments import arm, comparison, trajectory
+
+    return {"fig3": trajectory.fig3, "fig4": trajectory.fig4, "fig5": trajectory.fig5,
+            "fig6": arm.fig6,
+            "fig7": lambda ctx: comparison.run_comparison(ctx, "fig7"),
+            "fig8": lambda ctx: comparison.run_comparison(ctx, "fig8")}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``hiddpg reproduce`` with ``argv``; returns the exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if {"-h", "--help"} & set(argv):
+        build_parser().print_help()
+        return 0
+    try:
+        args = build_parser().parse_args(argv)
+        if args.episodes is not None and args.episodes < 1:
+            raise UsageError(f"--episodes {args.episodes} must be >= 1")
+        tasks = tuple(t for t in (args.tasks or "").split(",") if t) or None
+        ctx = Context(out=args.out or f"results/{args.scale}", scale=args.scale,
+                      seeds=args.seeds, episodes=args.episodes, sets=tuple(args.sets),
+                      tasks=tasks)
+        ctx.config("hi-ddpg", "PuckTrajectory1")  # a bad --set fails here, before training
+    except (UsageError, ValueError) as err:
+        print(f"{PROG}: error: {err}", file=sys.stderr)
+        return 2
+    from hiddpg.experiments.report import write_report
+
+    figures = FIGURES if args.figure == "all" else (args.figure,)
+    runners, t0 = _runners(), time.perf_counter()
+    try:
+        for name in figures:
+            ctx.say(f"== {name} ({ctx.scale} scale) ==")
+            section = runners[name](ctx)
+            ctx.say(f"{name}: {', '.join(section['figures'])} ({section['wall_s']:.1f} s)")
+            write_report(ctx, time.perf_counter() - t0)
+    except ExperimentError as err:
+        print(f"{PROG}: error: {err}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted; run the same command again to continue", file=sys.stderr)
+        return 130
+    report = write_report(ctx, time.perf_counter() - t0)
+    print(f"wrote {report} ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,265 @@
+"""What every paper reproduction shares: scales and budgets, run-or-reuse, loading runs.
+
+An experiment's output directory ``OUT`` holds::
+
+    runs/<algo>-<task>/   run directories of `hiddpg train` (shared by the figures that use them)
+        snapshots/episode_NNNNNN.npz   a noise-free evaluation episode per seed after each chunk
+    figures/figN.png|pdf  the figures
+    sections/figN.json    each figure's numbers and report text (report.md is built from them)
+    report.md             the numbers behind the figures
+
+:func:`ensure_run` trains a run through the train command's in-process ``main`` only if it is
+not on disk: a finished run is reused as is, an interrupted one is resumed (``--resume``), a
+run whose config differs from the one asked for is an error (use another ``--out``). This
+module is shell: files and the train command, no plotting.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hiddpg.configs import TrainConfig
+from hiddpg.experiments.rundata import SNAPSHOT_DIR, ExperimentError
+from hiddpg.runs import CONFIG_FILE, Run, atomic_write, make_trainer
+
+SCALES = ("quick", "paper")
+FAILED_FOR_GOOD = "non-finite"
+"""A run stopped by a non-finite loss fails again on resume (training is deterministic)."""
+EVAL_KEY = 0
+"""Evaluation key of the snapshots (that of ``hiddpg eval --key 0``)."""
+
+
+@dataclass(frozen=True)
+class Budget:
+    """The training budget of one run; ``None`` keeps the preset's value."""
+
+    preset: str
+    seeds: int
+    episodes: int
+    eval_every: int
+    chunk_episodes: int
+    pretrain_episodes: int | None = None
+    """HI-DDPG's low-level pre-training (random goals) at the start of ``episodes``."""
+
+
+#: (scale, task family) -> budget. ``quick`` finishes in minutes on a laptop; ``paper`` is the
+#: paper's 15 runs per method with the paper preset's episodes (hours; resumable).
+BUDGETS: dict[tuple[str, str], Budget] = {
+    ("quick", "puck"): Budget("quick", seeds=3, episodes=300, eval_every=10, chunk_episodes=30,
+                              pretrain_episodes=60),
+    ("quick", "arm"): Budget("quick", seeds=3, episodes=120, eval_every=10, chunk_episodes=20,
+                             pretrain_episodes=40),
+    ("paper", "puck"): Budget("paper", seeds=15, episodes=3000, eval_every=20,
+                              chunk_episodes=200),
+    ("paper", "arm"): Budget("paper", seeds=15, episodes=3000, eval_every=20,
+                             chunk_episodes=100, pretrain_episodes=1000),
+}
+
+
+def budget_table() -> str:
+    """The budgets as a markdown table (README, report)."""
+    rows = ["| scale | tasks | preset | seeds | episodes | eval every | chunk | pre-training |",
+            "|---|---|---|---:|---:|---:|---:|---:|"]
+    for (scale, family), b in BUDGETS.items():
+        pre = "preset's" if b.pretrain_episodes is None else str(b.pretrain_episodes)
+        rows.append(f"| {scale} | {family} | {b.preset} | {b.seeds} | {b.episodes} | "
+                    f"{b.eval_every} | {b.chunk_episodes} | {pre} |")
+    return "\n".join(rows)
+
+
+@dataclass
+class Context:
+    """One ``hiddpg reproduce`` invocation: where, at what scale, with which overrides."""
+
+    out: Path
+    scale: str = "quick"
+    seeds: int | None = None
+    """Seeds per run (0..seeds-1); ``None``: the budget's."""
+    episodes: int | None = None
+    """Episodes per run for every task; ``None``: the budget's."""
+    sets: tuple[str, ...] = ()
+    """``--set key=value`` for every run; ``agent.hidden=[..]`` sets every hidden-size field."""
+    tasks: tuple[str, ...] | None = None
+    """Restrict the trajectory tasks (Figs. 4-5) to these (tests)."""
+    log: Any = field(default=None, repr=False)
+    """Where progress lines go (default: the current ``sys.stderr``)."""
+
+    def __post_init__(self) -> None:
+        if self.scale not in SCALES:
+            raise ValueError(f"scale={self.scale!r} must be one of {SCALES}")
+        if self.seeds is not None and self.seeds < 1:
+            raise ValueError(f"seeds={self.seeds} must be >= 1")
+        self.out = Path(self.out)
+
+    def say(self, message: str) -> None:
+        print(message, file=self.log or sys.stderr, flush=True)
+
+    def budget(self, task: str) -> Budget:
+        from hiddpg.presets import task_family
+
+        return BUDGETS[(self.scale, task_family(task))]
+
+    def seed_list(self, task: str) -> list[int]:
+        return list(range(self.seeds or self.budget(task).seeds))
+
+    def run_path(self, algo: str, task: str) -> Path:
+        return self.out / "runs" / f"{algo}-{task}"
+
+    def figure_stem(self, name: str) -> Path:
+        return self.out / "figures" / name
+
+    def train_sets(self, algo: str, task: str) -> list[str]:
+        """The ``--set`` list of a run: budget, then the user's overrides."""
+        from hiddpg.presets import make_config
+
+        b = self.budget(task)
+        episodes = self.episodes or b.episodes
+        sets = [f"episodes={episodes}", f"eval_every={min(b.eval_every, episodes)}",
+                f"chunk_episodes={b.chunk_episodes}"]
+        base = make_config(algo, task, b.preset, sets)
+        if b.pretrain_episodes is not None and hasattr(base.agent, "pretrain_episodes"):
+            # the same fraction of the run when --episodes changes the budget
+            pretrain = round(b.pretrain_episodes * episodes / b.episodes)
+            sets.append(f"agent.pretrain_episodes={pretrain}")
+        return sets + expand_sets(base, self.sets)
+
+    def config(self, algo: str, task: str) -> TrainConfig:
+        from hiddpg.presets import make_config
+
+        return make_config(algo, task, self.budget(task).preset, self.train_sets(algo, task))
+
+
+def expand_sets(config: TrainConfig, sets: tuple[str, ...] | list[str]) -> list[str]:
+    """``agent.hidden=V`` becomes one ``--set`` per hidden-size field of ``config.agent``
+    (``hidden`` or ``*_hidden`` at any depth), so one override fits every algorithm."""
+    out: list[str] = []
+    for item in sets:
+        key, _, value = item.partition("=")
+        if key.strip() != "agent.hidden":
+            out.append(item)
+            continue
+        out += [f"agent.{path}={value}" for path in _hidden_paths(config.agent)]
+    return out
+
+
+def _hidden_paths(obj: Any, prefix: str = "") -> list[str]:
+    paths = []
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if dataclasses.is_dataclass(value):
+            paths += _hidden_paths(value, f"{prefix}{f.name}.")
+        elif f.name == "hidden" or f.name.endswith("_hidden"):
+            paths.append(prefix + f.name)
+    return paths
+
+
+def available(ctx: Context, algo: str, task: str) -> str | None:
+    """``None`` if ``algo``'s run on ``task`` is finished on disk or can be trained; else why
+    not (one line), e.g. an algorithm without a preset or whose module does not import."""
+    try:
+        config = ctx.config(algo, task)
+        path = ctx.run_path(algo, task)
+        if (path / CONFIG_FILE).is_file():
+            run = Run.open(path)
+            if (run.progress().get("status") == "finished"
+                    and run.checkpoint_episodes() == config.episodes):
+                return None
+        make_trainer(config)
+    except (ValueError, TypeError, ImportError, AttributeError, KeyError) as err:
+        return f"{type(err).__name__}: {err}"
+    return None
+
+
+# --------------------------------------------------------------------------- run or reuse
+
+
+def ensure_run(ctx: Context, algo: str, task: str) -> Path:
+    """The run directory of ``algo`` on ``task``, trained to its budget: reused if finished,
+    resumed if interrupted, created otherwise; the last snapshot is made if missing."""
+    from hiddpg.commands import train as train_cmd
+
+    path, config = ctx.run_path(algo, task), ctx.config(algo, task)
+    seeds = ctx.seed_list(task)
+    hook = lambda run, episodes: write_snapshot(run)  # noqa: E731
+    if (path / CONFIG_FILE).is_file():
+        run = Run.open(path)
+        _check_same(run, config, seeds)
+        done, progress = run.checkpoint_episodes(), run.progress()
+        if progress.get("status") == "failed" and FAILED_FOR_GOOD in progress.get("error", ""):
+            ctx.say(f"{path}: failed before ({progress['error']}); using its "
+                    f"{done} episodes")
+        elif done < config.episodes or progress.get("status") != "finished":
+            ctx.say(f"{path}: resuming at episode {done} of {config.episodes}")
+            if done and not (path / SNAPSHOT_DIR / snapshot_name(done)).is_file():
+                write_snapshot(run)  # killed between its checkpoint and its snapshot
+            code = train_cmd.main(["--resume", str(path), "--episodes", str(config.episodes)],
+                                  on_chunk=hook)
+            _check_code(code, path)
+        else:
+            ctx.say(f"{path}: finished, reused")
+    else:
+        ctx.say(f"{path}: training {algo} on {task}, {len(seeds)} seeds, "
+                f"{config.episodes} episodes")
+        argv = [algo, task, "--preset", ctx.budget(task).preset,
+                "--seeds", ",".join(map(str, seeds)), "--out", str(path.parent),
+                "--name", path.name]
+        for item in ctx.train_sets(algo, task):
+            argv += ["--set", item]
+        _check_code(train_cmd.main(argv, on_chunk=hook), path)
+    run = Run.open(path)
+    if not (path / SNAPSHOT_DIR / snapshot_name(run.checkpoint_episodes())).is_file():
+        write_snapshot(run)
+    return path
+
+
+def _check_same(run: Run, config: TrainConfig, seeds: list[int]) -> None:
+    mine = dataclasses.replace(run.config, episodes=config.episodes)
+    if mine != config or list(run.seeds) != seeds:
+        diff = [f.name for f in dataclasses.fields(config)
+                if getattr(mine, f.name) != getattr(config, f.name)]
+        if list(run.seeds) != seeds:
+            diff.append(f"seeds {list(run.seeds)} != {seeds}")
+        raise ExperimentError(f"{run.path} holds a run with another config ({', '.join(diff)}); "
+                              "remove it or choose another --out")
+
+
+def _check_code(code: int, path: Path) -> None:
+    if code == 1:  # a non-finite loss: the figures use the episodes before it
+        print(f"warning: {path} stopped early (non-finite loss); using its episodes so far",
+              file=sys.stderr)
+    if code == 2:
+        raise ExperimentError(f"training {path} was refused (usage error above)")
+    if code == 130:
+        raise KeyboardInterrupt
+
+
+# ------------------------------------------------------------------------------ snapshots
+
+
+def snapshot_name(episodes: int) -> str:
+    return f"episode_{episodes:06d}.npz"
+
+
+def write_snapshot(run: Run) -> Path:
+    """Evaluate the checkpointed policies (one noise-free episode per seed) and store metrics
+    and trajectories in ``snapshots/episode_NNNNNN.npz``."""
+    from hiddpg.commands.eval import eval_keys
+
+    trainer = make_trainer(run.config)
+    state, done = run.load_checkpoint(trainer)
+    metrics, traj = trainer.evaluate_seeds(state, eval_keys(EVAL_KEY, run.seeds))
+    arrays = {f"metric_{k}": np.asarray(v) for k, v in metrics.items()}
+    arrays.update({f"traj_{k}": np.asarray(v) for k, v in traj.items()})
+    buf = io.BytesIO()
+    np.savez_compressed(buf, episode=np.asarray(done), **arrays)
+    target = run.path / SNAPSHOT_DIR / snapshot_name(done)
+    target.parent.mkdir(exist_ok=True)
+    atomic_write(target, buf.getvalue())
+    return target

@@ -1,0 +1,152 @@
+"""report.md: the numbers behind the figures, rebuilt from every figure's stored section.
+
+Each figure writes ``sections/figN.json`` (title, figure paths, a markdown body, the numbers
+as JSON, its wall-clock time); :func:`write_report` joins the sections present, in figure
+order, under a header with the budgets and the time spent, so figures made by separate
+invocations end up in one report. Numbers are printed plainly (``-12.3 ± 4.5``,
+``-12.0 [-15.1, -9.8]``) so that they parse back (:func:`parse_numbers`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hiddpg.experiments.common import BUDGETS, Context, budget_table
+from hiddpg.runs import PROGRESS_FILE, atomic_write
+
+ORDER = ("fig3", "fig4", "fig5", "fig6", "fig7", "fig8")
+REPORT_FILE = "report.md"
+_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*(?:e[-+]?\d+)?|inf)|nan", re.IGNORECASE)
+
+
+def fmt(x: float | None, digits: int = 3) -> str:
+    """``x`` with ``digits`` significant digits, in fixed notation from 1 up (``-833``,
+    ``12.3``, ``0.00565``); ``nan`` for a missing value."""
+    if x is None or not math.isfinite(float(x)):
+        return "nan" if x is None or math.isnan(float(x)) else str(float(x))
+    x = float(x)
+    if abs(x) >= 1:
+        return f"{x:.{max(0, digits - 1 - int(math.floor(math.log10(abs(x)))))}f}"
+    return f"{x:.{digits}g}"
+
+
+def fmt_pm(mean: float, std: float) -> str:
+    return f"{fmt(mean)} ± {fmt(std, 2)}"
+
+
+def fmt_ci(estimate: float, low: float, high: float) -> str:
+    return f"{fmt(estimate)} [{fmt(low)}, {fmt(high)}]"
+
+
+def parse_numbers(text: str) -> list[float]:
+    """Every number in ``text`` (a table cell or a line), in order."""
+    return [float(m) for m in _NUMBER.findall(text)]
+
+
+def table_rows(markdown: str) -> list[list[str]]:
+    """The body rows of every markdown table in ``markdown`` (header and rule skipped)."""
+    rows, previous = [], ""
+    for line in markdown.splitlines():
+        if line.startswith("|") and not set(line) <= set("|-: "):
+            if not previous.startswith("|"):
+                previous = line  # a header
+                continue
+            rows.append([c.strip() for c in line.strip().strip("|").split("|")])
+        previous = line
+    return rows
+
+
+def load_sections(out: Path) -> dict[str, dict]:
+    sections = {}
+    for name in ORDER:
+        path = out / "sections" / f"{name}.json"
+        if path.is_file():
+            sections[name] = json.loads(path.read_text())
+    return sections
+
+
+def training_wall_time(out: Path) -> dict[str, float]:
+    """Wall-clock training seconds recorded by every run under ``out/runs``."""
+    times = {}
+    for progress in sorted((out / "runs").glob(f"*/{PROGRESS_FILE}")):
+        times[progress.parent.name] = float(json.loads(progress.read_text())["wall_time"])
+    return times
+
+
+def write_report(ctx: Context, invocation_s: float | None = None) -> Path:
+    """Rebuild ``report.md`` from the stored sections."""
+    sections = load_sections(ctx.out)
+    train = training_wall_time(ctx.out)
+    scale_budgets = {f: b for (s, f), b in BUDGETS.items() if s == ctx.scale}
+    seeds = ctx.seeds or max(b.seeds for b in scale_budgets.values())
+    lines = [f"# HI-DDPG reproduction ({ctx.scale} scale)", "",
+             f"Written by `hiddpg reproduce` on {time.strftime('%Y-%m-%d %H:%M:%S')}; "
+             f"{seeds} seeds per method; the run (seed) is the unit of every statistic.", "",
+             "## Budgets", "", budget_table(), ""]
+    if ctx.episodes or ctx.sets or ctx.seeds:
+        lines += [f"Overrides of this output: seeds={ctx.seeds}, episodes={ctx.episodes}, "
+                  f"set={list(ctx.sets)}.", ""]
+    lines += ["## Time spent", "", "| item | wall-clock seconds |", "|---|---:|"]
+    lines += [f"| {name}: training or reuse, evaluation, figure (when last made) | "
+              f"{s['wall_s']:.1f} |" for name, s in sections.items()]
+    lines += [f"| training {name} (all sessions) | {t:.1f} |" for name, t in train.items()]
+    lines.append(f"| training, total (all sessions) | {sum(train.values()):.1f} |")
+    if invocation_s is not None:
+        lines.append(f"| this invocation | {invocation_s:.1f} |")
+    lines.append("")
+    for name, s in sections.items():
+        lines += [f"## {s['title']}", ""]
+        lines += [f"![{name}]({p})" for p in s["figures"] if p.endswith(".png")]
+        lines += ["", s["markdown"], ""]
+    path = ctx.out / REPORT_FILE
+    ctx.out.mkdir(parents=True, exist_ok=True)
+    atomic_write(path, "\n".join(lines).encode())
+    return path
+
+
+# ------------------------------------------------------------------------ figures, sections
+
+
+def pyplot() -> Any:
+    """``matplotlib.pyplot`` on the Agg backend (no display needed)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save_figure(fig: Any, stem: Path) -> list[Path]:
+    """Write ``fig`` as ``stem.png`` and ``stem.pdf``; close it; return the two paths."""
+    plt = pyplot()
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    paths = [stem.with_suffix(".png"), stem.with_suffix(".pdf")]
+    for p in paths:
+        fig.savefig(p, dpi=150, bbox_inches="tight")
+    plt.close(fig)
+    return paths
+
+
+def write_section(ctx: Context, name: str, section: dict[str, Any]) -> Path:
+    """Store a figure's report section (``title``, ``figures``, ``markdown``, ``numbers``,
+    ``wall_s``) as ``sections/<name>.json``."""
+    path = ctx.out / "sections" / f"{name}.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write(path, (json.dumps(section, indent=2, default=_json_default) + "\n").encode())
+    return path
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.generic | np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"cannot serialise {type(obj).__name__}")

@@ -1,0 +1,207 @@
+"""``hiddpg reproduce`` and ``hiddpg plot`` end to end on tiny budgets, and the figure maths.
+
+The end-to-end run is Fig. 4 on one task (2 seeds, 20 episodes, hidden [16, 16]): it must write
+valid PNG/PDF files and a report whose numbers parse; a second invocation must reuse the run
+without training. Tiles, run-or-reuse decisions and success/goal measures are checked on
+synthetic data.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from hiddpg.commands import plot as plot_cmd
+from hiddpg.commands import reproduce
+from hiddpg.experiments import comparison, report, stats
+from hiddpg.experiments.arm import outcomes
+from hiddpg.experiments.common import Context, ensure_run, expand_sets
+from hiddpg.experiments.rundata import load_run
+from hiddpg.experiments.trajectory import goal_distances
+from hiddpg.presets import make_config
+from hiddpg.runs import Run
+
+TINY = ["--seeds", "2", "--episodes", "20", "--set", "agent.hidden=[16,16]",
+        "--tasks", "PuckTrajectory2"]
+PNG_MAGIC, PDF_MAGIC = b"\x89PNG\r\n\x1a\n", b"%PDF-"
+RUN = "runs/hi-ddpg-PuckTrajectory2"
+
+
+@pytest.fixture(scope="module")
+def reproduced(tmp_path_factory):
+    out = tmp_path_factory.mktemp("reproduce")
+    assert reproduce.main(["fig4", "--out", str(out), *TINY]) == 0
+    return out
+
+
+def _valid_figure(stem):
+    assert stem.with_suffix(".png").read_bytes().startswith(PNG_MAGIC)
+    assert stem.with_suffix(".pdf").read_bytes().startswith(PDF_MAGIC)
+
+
+def test_fig4_writes_figures_and_a_report_whose_numbers_parse(reproduced):
+    _valid_figure(reproduced / "figures" / "fig4")
+    text = (reproduced / "report.md").read_text()
+    assert "## Fig. 4" in text and "![fig4](figures/fig4.png)" in text
+    rows = [r for r in report.table_rows(text) if r[0] == "PuckTrajectory2"]
+    assert len(rows) == 2  # one row per reference goal
+    numbers = json.loads((reproduced / "sections" / "fig4.json").read_text())["numbers"]
+    mine = numbers["PuckTrajectory2"]
+    for g, row in enumerate(rows):
+        near, seg = report.parse_numbers(row[2]), report.parse_numbers(row[3])
+        switches, ref_switches = report.parse_numbers(row[4]), report.parse_numbers(row[5])
+        ret = report.parse_numbers(row[6])
+        assert len(near) == len(seg) == len(switches) == len(ret) == 2  # mean ± std
+        assert near[0] >= 0 and seg[0] >= near[0] - 1e-2  # nearest is the smallest distance
+        assert near[0] == pytest.approx(np.mean(np.array(mine["nearest_distance"])[:, g]),
+                                        rel=1e-2)
+        assert switches[0] == pytest.approx(np.mean(mine["switches"]), rel=1e-2)
+        assert ref_switches == [1.0] and ret[0] < 0
+    times = {r[0]: report.parse_numbers(r[1]) for r in report.table_rows(text)
+             if "training" in r[0] or "fig4" in r[0]}
+    assert all(v and v[0] > 0 for v in times.values())
+    assert report.parse_numbers(report.budget_table().splitlines()[2])[0] == 3  # quick seeds
+
+
+def test_second_invocation_reuses_the_runs(reproduced, capsys):
+    run = reproduced / RUN
+    kept = sorted(p for p in run.rglob("*") if p.is_file() and "tb" not in p.parts)
+    before = {p: (p.stat().st_mtime_ns, p.read_bytes()) for p in kept}
+    figure = reproduced / "figures" / "fig4.png"
+    figure_time = figure.stat().st_mtime_ns
+    assert reproduce.main(["fig4", "--out", str(reproduced), *TINY]) == 0
+    assert {p: (p.stat().st_mtime_ns, p.read_bytes()) for p in kept} == before
+    assert figure.stat().st_mtime_ns > figure_time
+    assert "finished, reused" in capsys.readouterr().err
+
+
+def test_a_different_config_in_the_same_out_is_refused(reproduced, capsys):
+    argv = ["fig4", "--out", str(reproduced), *TINY]
+    argv[argv.index("--seeds") + 1] = "3"
+    assert reproduce.main(argv) == 1
+    assert "another config" in capsys.readouterr().err
+
+
+def test_an_interrupted_run_is_resumed(reproduced, monkeypatch, tmp_path):
+    from hiddpg.commands import train as train_cmd
+
+    ctx = Context(tmp_path, seeds=2, episodes=20, sets=("agent.hidden=[16,16]",))
+    target = ctx.run_path("hi-ddpg", "PuckTrajectory2")
+    target.parent.mkdir(parents=True)
+    shutil.copytree(reproduced / RUN, target)
+    run = Run.open(target)
+    run.write_progress(20, 1.0, "running")  # as a killed process leaves it
+    calls = []
+
+    def fake_train(argv, on_chunk=None):
+        calls.append(argv)
+        run.write_progress(20, 1.0, "finished")
+        return 0
+
+    monkeypatch.setattr(train_cmd, "main", fake_train)
+    assert ensure_run(ctx, "hi-ddpg", "PuckTrajectory2") == target
+    assert calls == [["--resume", str(target), "--episodes", "20"]]
+    ensure_run(ctx, "hi-ddpg", "PuckTrajectory2")  # finished now: no second call
+    assert len(calls) == 1
+
+
+def test_cli_dispatch_and_number_format(capsys):
+    from hiddpg import cli
+
+    assert cli.main(["reproduce", "--help"]) == 0 and cli.main(["plot", "--help"]) == 0
+    assert "budgets per scale" in capsys.readouterr().out
+    assert [report.fmt(x) for x in (-832.7, 0.005651, 12.34, float("nan"))] == [
+        "-833", "0.00565", "12.3", "nan"]
+    assert report.parse_numbers("-833 ± 3.4e+02 [nan, 1.00]") == pytest.approx(
+        [-833, 340, float("nan"), 1.0], nan_ok=True)
+
+
+def test_bad_command_lines_exit_2(tmp_path, capsys):
+    assert reproduce.main(["fig9"]) == 2
+    assert reproduce.main(["fig4", "--out", str(tmp_path), "--set", "agent.nope=1"]) == 2
+    assert reproduce.main(["fig4", "--scale", "huge"]) == 2
+    assert plot_cmd.main([str(tmp_path / "missing")]) == 2
+    assert not any(tmp_path.iterdir())
+
+
+# ----------------------------------------------------------------------- synthetic runs
+
+
+def _synthetic_run(path, algo, offset, seeds=(0, 1, 2), episodes=40, every=4):
+    """A run directory with metrics only: returns rise with the episode, plus ``offset``."""
+    config = make_config(algo, "PuckObstacle", "quick", [f"episodes={episodes}",
+                                                          f"eval_every={every}"])
+    run = Run.create(path, config, seeds)
+    rng = np.random.default_rng(round(10 * offset))
+    ep = np.tile(np.arange(1, episodes + 1), (len(seeds), 1))
+    ret = ep / 10 + offset + rng.normal(0, 1, ep.shape)
+    train = {"episode": ep, "length": np.full(ep.shape, 50), "return": ret, "env_return": ret,
+             "switches": np.zeros(ep.shape)}
+    ev = ep[:, every - 1::every]
+    score = ev / 10 + offset + rng.normal(0, 1, ev.shape)
+    run.append_metrics(train, {"episode": ev, "return": score, "env_return": score})
+    return path
+
+
+def test_tiles_equal_pairwise_welch_on_stage_means(tmp_path):
+    runs = {label: load_run(_synthetic_run(tmp_path / algo, algo, off))
+            for label, algo, off in (("A", "ddpg", 0.0), ("B", "hi-ddpg", 5.0),
+                                     ("C", "hi-ddpg-wo-model", 1.0))}
+    comp = comparison.compare(runs, n_stages=5)
+    assert comp.metric == "eval_env_return" and comp.episodes.tolist() == list(range(4, 41, 4))
+    expected = {}
+    for label, run in runs.items():
+        values = run.metrics["eval_env_return"][:, 3::4]  # (seeds, 10 evaluations)
+        expected[label] = values.reshape(3, 5, 2).mean(axis=2)  # 5 stages of 2 evaluations
+        np.testing.assert_allclose(comp.scores[label], expected[label])
+    ref = stats.pairwise_welch(expected)
+    np.testing.assert_allclose(comp.welch.t, ref.t, equal_nan=True)
+    np.testing.assert_allclose(comp.welch.p_holm, ref.p_holm, equal_nan=True)
+    t, p = stats.welch_t(expected["B"], expected["A"])
+    np.testing.assert_allclose(comp.welch.tile("B", "A"), stats.signed_log_p(t, p))
+    assert comp.bounds == [(4, 8), (12, 16), (20, 24), (28, 32), (36, 40)]
+    numbers = comparison.summary_numbers(comp)
+    np.testing.assert_allclose(numbers["final"]["B"]["mean"], expected["B"][:, -1].mean())
+    pair = next(q for q in numbers["pairs"] if (q["a"], q["b"]) == ("A", "B"))
+    assert pair["t"] < 0 and pair["stages_b_better"] >= 1
+    table = report.table_rows(comparison.summary_markdown(numbers))
+    assert report.parse_numbers(table[1][2])[0] == pytest.approx(
+        numbers["final"]["B"]["mean"], rel=1e-2)
+
+
+def test_plot_two_run_dirs_writes_a_figure(tmp_path, capsys):
+    a = _synthetic_run(tmp_path / "runs" / "a", "ddpg", 0.0)
+    b = _synthetic_run(tmp_path / "runs" / "b", "hi-ddpg", 2.0)
+    assert plot_cmd.main([str(a), str(b), "--out", str(tmp_path / "cmp"), "--stages", "4"]) == 0
+    _valid_figure(tmp_path / "cmp")
+    out = capsys.readouterr().out
+    assert "| DDPG | 3 |" in out and "DDPG vs HI-DDPG" in out
+    assert plot_cmd.main([str(tmp_path / "runs"), "--out", str(tmp_path / "all")]) == 0
+    _valid_figure(tmp_path / "all")
+
+
+# --------------------------------------------------------------------- measures, options
+
+
+def test_goal_distances_and_arm_outcomes():
+    goal = np.array([[[1.0, 0.0]] * 2 + [[3.0, 1.0]] * 2, [[0.0, 0.0]] * 4])
+    traj = {"goal": goal, "switch": np.array([[1, 0, 1, 0], [1, 0, 0, 0]]),
+            "alive": np.ones((2, 4))}
+    near, seg = goal_distances(traj, np.array([[1.0, 0.0], [3.0, 2.0]]), np.array([2]), 4)
+    np.testing.assert_allclose(near, [[0.0, 1.0], [1.0, np.hypot(3, 2)]])
+    np.testing.assert_allclose(seg, near)
+    arm = {"reward": np.array([[-0.5, -0.01, 0.0], [-0.5, -100.0, 0.0], [-0.2, -0.1, -0.05]]),
+           "alive": np.array([[1, 1, 1], [1, 1, 0], [1, 1, 1]])}
+    success, collision = outcomes(arm, success_radius=0.03, horizon=3)
+    assert success.tolist() == [True, False, False] and collision.tolist() == [False, True, False]
+
+
+def test_hidden_override_reaches_every_hidden_field():
+    hi = make_config("hi-ddpg", "PuckTrajectory1", "quick")
+    assert expand_sets(hi, ["agent.hidden=[8]", "episodes=5"]) == [
+        "agent.high.hidden=[8]", "agent.low.hidden=[8]", "episodes=5"]
+    assert expand_sets(make_config("ddpg", "PuckTrajectory1", "quick"),
+                       ["agent.hidden=[8]"]) == ["agent.hidden=[8]"]
