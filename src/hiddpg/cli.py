@@ -18,6 +18,11 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "envs": ("hiddpg.commands.envs:main", "list the environments, write a demo GIF of one"),
     "train": ("hiddpg.commands.train:main", "train an algorithm on a task, many seeds at once"),
     "eval": ("hiddpg.commands.eval:main", "replay a run's learned policies, optionally as a GIF"),
+    "sweep": ("hiddpg.commands.sweep:main",
+              "train a grid of algorithms x tasks x seeds x overrides, locally or on Ray"),
+    "ilqr": ("hiddpg.commands.ilqr:main", "solve a task with iLQR, the standard controller"),
+    "reproduce": ("hiddpg.commands.reproduce:main", "reproduce the paper's Figs. 3-8 and a report"),
+    "plot": ("hiddpg.commands.plot:main", "compare runs: return curves and t-test tiles"),
 }
 
 
