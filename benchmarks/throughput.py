@@ -32,10 +32,15 @@ own cost analysis of one jitted update.
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import importlib.util
+import json
 import os
 import platform
 import re
 import statistics
+import subprocess
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -247,15 +252,14 @@ def numpy_gflops(matmuls: dict[Matmul, int], min_time: float = 0.3, repeats: int
                 np.matmul(a, b, out=out)
 
     once()
-    n = 1
-    while True:
+    n, elapsed = 1, 0.0
+    while elapsed < min_time / 4:
         start = time.perf_counter()
         for _ in range(n):
             once()
-        if time.perf_counter() - start >= min_time / 4:
-            break
+        elapsed = time.perf_counter() - start
         n *= 2
-    n = max(1, int(n * min_time / max(time.perf_counter() - start, 1e-9)))
+    n = max(1, int(n / 2 * min_time / elapsed))
     best = float("inf")
     for _ in range(repeats):
         start = time.perf_counter()
@@ -265,9 +269,31 @@ def numpy_gflops(matmuls: dict[Matmul, int], min_time: float = 0.3, repeats: int
     return flops / best / 1e9
 
 
-def numpy_peak(size: int = 1024) -> float:
-    """NumPy float32 GFLOP/s on a large square matmul (the machine's practical peak)."""
-    return numpy_gflops({(size, size, size): 4})
+def _numpy_worker(algo: str) -> dict:
+    trainer = None if algo == "sb3" else Trainer(ours_config(algo, 1, 1))
+    return {"same": numpy_gflops(flops_per_step(algo, trainer).matmuls),
+            "big": numpy_gflops({(1024, 1024, 1024): 4})}
+
+
+def numpy_rates(algo: str, threads: int | None) -> dict:
+    """NumPy GFLOP/s on ``algo``'s matmul shapes (``same``) and on 1024² (``big``), measured
+    in a fresh process (no JAX threads around) with ``threads`` BLAS threads (None: default).
+    On a loaded machine multi-threaded OpenBLAS can collapse (its threads spin-wait for a core
+    someone else holds), so both one thread and the default are measured."""
+    env = dict(os.environ)
+    if threads is not None:
+        for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+            env[var] = str(threads)
+    return _worker(["numpy", algo], env)
+
+
+def _worker(args: list[str], env: dict | None = None) -> dict:
+    proc = subprocess.run([sys.executable, __file__, "--worker", *args], env=env,
+                          capture_output=True, text=True, check=False)
+    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
+    if proc.returncode or not lines:
+        raise RuntimeError(f"worker {args} failed:\n{proc.stdout}\n{proc.stderr}")
+    return json.loads(lines[-1])
 
 
 # -- timing --------------------------------------------------------------------------------------
@@ -279,7 +305,8 @@ class Row:
     walls: list[float]
     cpus: list[float]
     flops: int  # matmul FLOPs per env step
-    gflops_same_shapes: float  # NumPy on this row's matmul shapes
+    core_gflops: float = float("nan")  # NumPy, 1 thread, this row's matmul shapes
+    machine_gflops: float = float("nan")  # NumPy, whole machine, this row's matmul shapes
     compile_s: float = 0.0
     note: str = ""
 
@@ -304,12 +331,8 @@ class Row:
         return self.cpus[self.best] / self.walls[self.best]
 
     @property
-    def achieved_gflops(self) -> float:
+    def gflops(self) -> float:
         return self.rate * self.flops / 1e9
-
-    @property
-    def peak_fraction(self) -> float:
-        return self.achieved_gflops / self.gflops_same_shapes
 
 
 def ours_config(algo: str, episodes: int, repeats: int):
@@ -320,11 +343,13 @@ def ours_config(algo: str, episodes: int, repeats: int):
     return make_config(algo, TASK, "paper", sets)
 
 
+NAMES = {"ddpg": "DDPG (ours)", "hi-ddpg": "HI-DDPG (ours)"}
+
+
 def time_ours(algo: str, seeds: int, episodes: int, repeats: int) -> Row:
     trainer = Trainer(ours_config(algo, episodes, repeats))
     horizon = trainer.env.max_steps(trainer.env_params)
     assert horizon == HORIZON, horizon
-    count = flops_per_step(algo, trainer)
     state = trainer.init_seeds(seed_keys(list(range(seeds))))
     jax.block_until_ready(state)
     start = time.perf_counter()
@@ -342,34 +367,28 @@ def time_ours(algo: str, seeds: int, episodes: int, repeats: int) -> Row:
         state = out[0]
     steps = int(np.asarray(out[1]["length"]).sum())  # seeds x episodes x 30
     assert steps == seeds * episodes * HORIZON, steps
-    name = {"ddpg": "DDPG (ours)", "hi-ddpg": "HI-DDPG (ours)"}.get(algo, algo)
-    return Row(name, seeds, steps, walls, cpus, count.flops, numpy_gflops(count.matmuls),
-               compile_s=compile_s)
+    return Row(NAMES.get(algo, algo), seeds, steps, walls, cpus,
+               flops_per_step(algo, trainer).flops, compile_s=compile_s)
 
 
-def time_sb3(steps: int, warmup: int, repeats: int) -> Row | None:
+def _sb3_worker(threads: int, steps: int, warmup: int, repeats: int) -> dict:
     try:
         import gymnasium as gym
         import stable_baselines3
         import torch
         from stable_baselines3 import DDPG
     except ImportError as err:
-        print(f"Stable-Baselines3 DDPG skipped: {err.name} is not installed "
-              "(.venv/bin/pip install torch stable-baselines3)")
-        return None
+        return {"skip": f"{err.name} is not installed"}
     import hiddpg  # noqa: F401  (registers the gymnasium ids)
 
-    def make():
-        env = gym.make(f"hiddpg/{TASK}-v0")
-        model = DDPG(
-            "MlpPolicy", env, learning_rate=1e-3, buffer_size=100_000, learning_starts=0,
-            batch_size=64, tau=0.001, gamma=0.99, train_freq=1, gradient_steps=1,
-            policy_kwargs={"net_arch": {"pi": [300, 300], "qf": [300, 300]}},
-            device="cpu", seed=0, verbose=0,
-        )
-        return model
-
-    model = make()
+    if threads:
+        torch.set_num_threads(threads)
+    model = DDPG(
+        "MlpPolicy", gym.make(f"hiddpg/{TASK}-v0"), learning_rate=1e-3, buffer_size=100_000,
+        learning_starts=0, batch_size=64, tau=0.001, gamma=0.99, train_freq=1,
+        gradient_steps=1, policy_kwargs={"net_arch": {"pi": [300, 300], "qf": [300, 300]}},
+        device="cpu", seed=0, verbose=0,
+    )
     model.learn(total_timesteps=warmup)
     walls, cpus = [], []
     for _ in range(repeats):
@@ -377,11 +396,106 @@ def time_sb3(steps: int, warmup: int, repeats: int) -> Row | None:
         model.learn(total_timesteps=steps, reset_num_timesteps=False)
         walls.append(time.perf_counter() - start)
         cpus.append(time.process_time() - start_cpu)
-    count = flops_per_step("sb3")
-    note = (f"SB3 {stable_baselines3.__version__}, torch {torch.__version__}, "
-            f"{torch.get_num_threads()} torch threads")
-    return Row("SB3 DDPG", 1, steps, walls, cpus, count.flops, numpy_gflops(count.matmuls),
-               note=note)
+    return {"walls": walls, "cpus": cpus, "threads": torch.get_num_threads(),
+            "versions": f"SB3 {stable_baselines3.__version__}, torch {torch.__version__}"}
+
+
+def time_sb3(threads: int | None, steps: int, warmup: int, repeats: int) -> Row | str:
+    """SB3 DDPG in a fresh process (torch's threads then compete with no JAX threads);
+    ``threads=None`` keeps torch's default. A string says why it was skipped."""
+    if importlib.util.find_spec("stable_baselines3") is None:
+        return "stable_baselines3 is not installed"
+    out = _worker(["sb3", str(threads or 0), str(steps), str(warmup), str(repeats)])
+    if "skip" in out:
+        return out["skip"]
+    label = f"{out['threads']} torch thread{'s' * (out['threads'] > 1)}"
+    label += " (default)" if threads is None else ""
+    return Row(f"SB3 DDPG, {label}", 1, steps, out["walls"], out["cpus"],
+               flops_per_step("sb3").flops, note=out["versions"])
+
+
+# -- where the time goes -------------------------------------------------------------------------
+def pieces(n: int = 300, episodes: int = 10) -> list[tuple[str, float, float]]:
+    """Milliseconds per env step of the parts of one seed's training step, each a jitted
+    ``lax.scan`` without ``vmap`` (best of 3): ``(label, wall ms, cpu ms)``."""
+    from hiddpg.agents import buffer as replay
+
+    key = jax.random.PRNGKey(0)
+    keys = jax.random.split(key, n)
+    out = []
+
+    def clock(label: str, fn, arg, per: int) -> None:
+        fn = jax.jit(fn)
+        jax.block_until_ready(fn(arg))
+        wall = cpu = float("inf")
+        for _ in range(3):
+            start, start_cpu = time.perf_counter(), time.process_time()
+            jax.block_until_ready(fn(arg))
+            wall = min(wall, time.perf_counter() - start)
+            cpu = min(cpu, time.process_time() - start_cpu)
+        out.append((label, 1e3 * wall / per, 1e3 * cpu / per))
+        print(f"  {label:58s} {1e3 * wall / per:7.3f} ms/step (cpu {1e3 * cpu / per:.3f})",
+              flush=True)
+
+    def scan(body):
+        return lambda s: jax.lax.scan(lambda c, k: (body(c, k), None), s, keys)[0]
+
+    def episodes_of(trainer, vmapped: bool):
+        agent, params = trainer.agent, trainer.env_params
+        run = lambda s: jax.lax.scan(  # noqa: E731
+            lambda c, k: agent.train_episode(k, c, params), s,
+            jax.random.split(key, episodes))[0]
+        return jax.vmap(run) if vmapped else run
+
+    def one(algo: str) -> None:
+        trainer = Trainer(ours_config(algo, episodes, 1))
+        agent, state = trainer.agent, trainer.agent.init(key, trainer.env_params)
+        single = jax.tree.map(lambda x: x[None], state)
+        per_ep = episodes * HORIZON
+        clock(f"{algo}: train_episode, vmap over 1 seed (as Trainer)",
+              episodes_of(trainer, True), single, per_ep)
+        clock(f"{algo}: train_episode, no vmap (lax.cond branches)",
+              episodes_of(trainer, False), state, per_ep)
+        idle = Trainer(dataclasses.replace(trainer.config, agent=dataclasses.replace(
+            trainer.config.agent, learning_starts=10**9)))
+        clock(f"{algo}: train_episode, no vmap, no update (env, acting, replay)",
+              episodes_of(idle, False), state, per_ep)
+        if algo == "ddpg":
+            block, b = agent.block, trainer.config.agent.batch_size
+
+            def sample(buf, k, b=b):
+                return replay.sample(buf, k, b)
+
+            buf = state.buffer
+            clock("ddpg: block.update (critic + actor + targets)",
+                  scan(lambda s, k: block.update(s, sample(buf, k))[0]), state.block, n)
+            clock("ddpg:   critic_update", scan(
+                lambda s, k: block.critic_update(s, sample(buf, k))[0]), state.block, n)
+            clock("ddpg:   actor_update", scan(
+                lambda s, k: block.actor_update(s, sample(buf, k)["obs"])[0]), state.block, n)
+            clock("ddpg: replay add + sample (100k)", scan(
+                lambda s, k: replay.add(s, jax.tree.map(lambda x: x[0], sample(s, k, 1)))),
+                  buf, n)
+        else:
+            for name in ("low", "high"):
+                level, ls = getattr(agent, name), getattr(state, name)
+                clock(f"hi-ddpg: {name} Level.update (block + model grad + model)",
+                      scan(lambda s, k, lv=level: lv.update(s, k)[0]), ls, n)
+                blk = level.block
+
+                def block_only(s, k, lv=level, blk=blk):
+                    tr = replay.sample(s.buffer, k, lv.config.batch_size)
+                    inp = jnp.concatenate([tr["s"], tr["c"]], -1)
+                    batch = {"obs": inp, "action": tr["a"], "reward": tr["r"],
+                             "next_obs": jnp.concatenate([tr["s2"], tr["c"]], -1),
+                             "terminated": tr["terminated"]}
+                    return s.replace(block=blk.update(s.block, batch)[0])
+
+                clock(f"hi-ddpg:   {name} block update alone", scan(block_only), ls, n)
+
+    for algo in ("ddpg", "hi-ddpg"):
+        one(algo)
+    return out
 
 
 # -- report --------------------------------------------------------------------------------------
@@ -397,46 +511,56 @@ def machine(loads: tuple[float, float]) -> str:
             f"{loads[0]:.1f} at the start and {loads[1]:.1f} at the end of the run")
 
 
-def markdown(rows: list[Row], sb3: Row | None, peak: float, args: argparse.Namespace,
-             loads: tuple[float, float], xla: dict[str, tuple[int, float | None]]) -> str:
+def markdown(rows: list[Row], base: Row | None, skip: str, args: argparse.Namespace,
+             loads: tuple[float, float], xla: dict[str, tuple[int, float | None]],
+             big: tuple[float, float]) -> str:
     head = ("| run | seeds | env steps/s (wall, best) | median | per CPU-second | CPU/wall | "
-            "vs SB3 (wall) | vs SB3 (CPU) | matmul GFLOP/step | GFLOP/s | % of NumPy, same "
-            "shapes | % of NumPy 1024² |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
-            "---:|---:|\n")
+            "÷ SB3 (wall) | ÷ SB3 (CPU) | matmul MFLOP/step | GFLOP/s | % of NumPy, 1 core | "
+            "% of NumPy, machine |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+            "---:|\n")
     body = ""
-    for r in rows + ([sb3] if sb3 else []):
-        ratio = f"{r.rate / sb3.rate:.1f}×" if sb3 else "n/a"
-        cpu_ratio = f"{r.cpu_rate / sb3.cpu_rate:.1f}×" if sb3 else "n/a"
+    for r in rows:
+        ratio = f"{r.rate / base.rate:.1f}×" if base else "n/a"
+        cpu_ratio = f"{r.cpu_rate / base.cpu_rate:.1f}×" if base else "n/a"
         body += (f"| {r.name} | {r.seeds} | {r.rate:,.0f} | {r.median_rate:,.0f} | "
                  f"{r.cpu_rate:,.0f} | {r.cores:.2f} | {ratio} | {cpu_ratio} | "
-                 f"{r.flops / 1e9:.3f} | {r.achieved_gflops:.1f} | "
-                 f"{100 * r.peak_fraction:.1f}% (of {r.gflops_same_shapes:.0f}) | "
-                 f"{100 * r.achieved_gflops / peak:.1f}% |\n")
+                 f"{r.flops / 1e6:.0f} | {r.gflops:.1f} | "
+                 f"{100 * r.gflops / r.core_gflops:.0f}% of {r.core_gflops:.0f} | "
+                 f"{100 * r.gflops / r.machine_gflops:.0f}% of {r.machine_gflops:.0f} |\n")
     checks = "; ".join(
-        f"{algo}: {ours / 1e9:.3f} GFLOP formula vs {x / 1e9:.3f} XLA"
+        f"{algo} {ours / 1e6:.0f} MFLOP by the formula, {x / 1e6:.0f} by XLA"
         for algo, (ours, x) in xla.items() if x is not None)
-    sb3_note = sb3.note if sb3 else "SB3 not installed: skipped"
+    sb3 = [r for r in rows if r.name.startswith("SB3")]
+    sb3_note = sb3[0].note if sb3 else f"SB3 skipped: {skip}"
+    base_note = (f"the ratios divide by the faster SB3 row ({base.name})" if base
+                 else "no SB3 baseline")
     cmd = (f".venv/bin/python benchmarks/throughput.py --episodes {args.episodes} "
            f"--repeats {args.repeats} --sb3-steps {args.sb3_steps} --write")
     return (
         f"{SECTION}\n\n"
-        f"Environment steps per second while training on {TASK} with updates from the first "
-        "step (paper preset: actor, critic and models 300-300, batch 64, "
+        f"Environment steps per second while training on {TASK} with an update at every "
+        "step from the first one (paper preset: actor, critic and models 300-300, batch 64, "
         "`agent.learning_starts=0`), measured by `benchmarks/throughput.py` on "
-        f"{machine(loads)}, {time.strftime('%Y-%m-%d')}. Default thread settings everywhere "
-        f"(XLA_FLAGS={os.environ.get('XLA_FLAGS', '') or 'unset'}; {sb3_note}).\n\n"
-        f"Ours: `Trainer.run_chunk_seeds` on a chunk of {args.episodes} episodes per seed "
-        "(+1 evaluation episode, timed but not counted), after a first chunk that compiles; "
-        f"best and median of {args.repeats} chunks; steps = seeds × episodes × 30. SB3: "
-        "`DDPG('MlpPolicy', gym.make('hiddpg/PuckTrajectory2-v0'))`, net_arch 300-300, batch "
-        "64, train_freq 1, gradient_steps 1, learning_starts 0, CPU torch; "
-        f"`learn({args.sb3_steps})` after a warm-up. Per CPU-second divides by the CPU time of "
-        "the process (all threads); CPU/wall is the mean number of busy cores. Matmul FLOPs "
-        "per step are counted by the formula in the script (HI-DDPG: the high level's update "
-        "is executed every step under `vmap`, and counted so); % of NumPy divides the "
-        "achieved rate by NumPy's float32 GFLOP/s on the same matmul shapes, and on a "
-        f"1024×1024 matmul ({peak:.0f} GFLOP/s). Formula vs XLA's cost analysis of one update "
-        f"(all ops): {checks or 'n/a'}.\n\n"
+        f"{machine(loads)}, {time.strftime('%Y-%m-%d')}. Default thread settings for XLA "
+        f"(XLA_FLAGS {os.environ.get('XLA_FLAGS', '') or 'unset'}); {sb3_note}.\n\n"
+        f"* Ours: `Trainer.run_chunk_seeds` on chunks of {args.episodes} episodes per seed "
+        "(+1 evaluation episode, timed but not counted) after a first chunk that compiles; "
+        f"best and median of {args.repeats} chunks; steps = seeds × episodes × 30.\n"
+        "* SB3: `DDPG('MlpPolicy', gym.make('hiddpg/PuckTrajectory2-v0'))` (our Gymnasium "
+        "adapter), net_arch 300-300 for actor and critic, batch 64, train_freq 1, "
+        "gradient_steps 1, learning_starts 0, CPU torch, in a fresh process; "
+        f"`learn({args.sb3_steps})` after a warm-up, best of {args.repeats}; {base_note}.\n"
+        "* Per CPU-second divides by the CPU time of the process (all its threads), which "
+        "stays meaningful when other jobs share the cores; CPU/wall is the mean number of "
+        "busy cores.\n"
+        "* Matmul MFLOP per env step by the formula in the script (HI-DDPG: low- and "
+        "high-level updates, the latter executed every step because `lax.cond` is a select "
+        "under `vmap`); cross-checked against XLA's cost analysis of one update (all ops): "
+        f"{checks or 'n/a'}. % of NumPy divides the achieved GFLOP/s by NumPy's float32 "
+        "GFLOP/s on the same matmul shapes, measured in a fresh process with one BLAS thread "
+        "(1 core) and for the machine (the larger of the default-thread measurement and "
+        f"{os.cpu_count()} × the one-thread one). NumPy on a 1024² matmul: {big[0]:.0f} GFLOP/s "
+        f"with one thread, {big[1]:.0f} with the default threads.\n\n"
         + head + body + f"\nReproduce: `{cmd}`\n"
     )
 
@@ -459,45 +583,83 @@ def main() -> None:
     parser.add_argument("--sb3-steps", type=int, default=2000)
     parser.add_argument("--sb3-warmup", type=int, default=200)
     parser.add_argument("--no-sb3", action="store_true")
+    parser.add_argument("--pieces", action="store_true",
+                        help="also time the parts of a training step (where the time goes)")
     parser.add_argument("--write", action="store_true", help=f"write the section to {DOC}")
+    parser.add_argument("--worker", nargs="+", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.worker:  # a subprocess of this script: print one JSON line
+        kind, *rest = args.worker
+        result = (_numpy_worker(rest[0]) if kind == "numpy"
+                  else _sb3_worker(*(int(x) for x in rest)))
+        print(json.dumps(result))
+        return
 
     load_start = load()
     print(f"load average {load_start:.2f}; XLA devices {jax.devices()}; "
           f"XLA_FLAGS={os.environ.get('XLA_FLAGS', '') or 'unset'}", flush=True)
-    peak = numpy_peak()
-    print(f"NumPy float32 1024x1024 matmul: {peak:.1f} GFLOP/s", flush=True)
+    algos = args.algos + ([] if args.no_sb3 else ["sb3"])
+    blas = {algo: (numpy_rates(algo, 1), numpy_rates(algo, None)) for algo in algos}
+    for algo, (one, default) in blas.items():
+        print(f"NumPy float32 GFLOP/s on {algo}'s matmul shapes: {one['same']:.1f} (1 thread), "
+              f"{default['same']:.1f} (default threads); 1024²: {one['big']:.1f}, "
+              f"{default['big']:.1f}", flush=True)
+    big = (max(one["big"] for one, _ in blas.values()),
+           max(default["big"] for _, default in blas.values()))
+
+    def with_peaks(row: Row, algo: str) -> Row:
+        one, default = blas[algo]
+        row.core_gflops = one["same"]
+        row.machine_gflops = max(default["same"], (os.cpu_count() or 1) * one["same"])
+        return row
 
     rows, xla = [], {}
     for algo in args.algos:
         trainer = Trainer(ours_config(algo, args.episodes, args.repeats))
         count = flops_per_step(algo, trainer)
-        per_update = xla_update_flops(algo, trainer)
         acting = sum(2 * m * k * n * t for (m, k, n), t in count.matmuls.items() if m == 1)
-        xla[algo] = (count.flops - acting, per_update)
+        xla[algo] = (count.flops - acting, xla_update_flops(algo, trainer))
         for seeds in args.seeds:
-            row = time_ours(algo, seeds, args.episodes, args.repeats)
+            row = with_peaks(time_ours(algo, seeds, args.episodes, args.repeats), algo)
             rows.append(row)
-            print(f"{row.name:16s} seeds {seeds:2d}: {row.rate:8,.0f} steps/s (median "
+            print(f"{row.name:16s} x{seeds:2d}: {row.rate:8,.0f} steps/s (median "
                   f"{row.median_rate:,.0f}), {row.cpu_rate:8,.0f} per CPU-s, CPU/wall "
-                  f"{row.cores:.2f}, compile+1st chunk {row.compile_s:.1f} s, "
-                  f"{row.achieved_gflops:.1f} GFLOP/s = {100 * row.peak_fraction:.1f}% of "
-                  f"NumPy on the same shapes ({row.gflops_same_shapes:.1f})", flush=True)
+                  f"{row.cores:.2f}, compile + 1st chunk {row.compile_s:.1f} s, "
+                  f"{row.gflops:.1f} GFLOP/s", flush=True)
 
-    sb3 = None if args.no_sb3 else time_sb3(args.sb3_steps, args.sb3_warmup, args.repeats)
-    if sb3:
-        print(f"{sb3.name:16s} seeds  1: {sb3.rate:8,.0f} steps/s (median "
-              f"{sb3.median_rate:,.0f}), {sb3.cpu_rate:8,.0f} per CPU-s, CPU/wall "
-              f"{sb3.cores:.2f}, {sb3.achieved_gflops:.1f} GFLOP/s = "
-              f"{100 * sb3.peak_fraction:.1f}% of NumPy on the same shapes; {sb3.note}")
+    base, skip = None, ""
+    if not args.no_sb3:
+        for threads in (None, 1):
+            sb3 = time_sb3(threads, args.sb3_steps, args.sb3_warmup, args.repeats)
+            if isinstance(sb3, str):
+                skip = sb3
+                print(f"Stable-Baselines3 DDPG skipped: {sb3} "
+                      "(.venv/bin/pip install torch stable-baselines3)")
+                break
+            rows.append(with_peaks(sb3, "sb3"))
+            print(f"{sb3.name:16s}: {sb3.rate:8,.0f} steps/s (median {sb3.median_rate:,.0f}), "
+                  f"{sb3.cpu_rate:8,.0f} per CPU-s, CPU/wall {sb3.cores:.2f}, "
+                  f"{sb3.gflops:.1f} GFLOP/s; {sb3.note}", flush=True)
+            base = sb3 if base is None or sb3.rate > base.rate else base
+    else:
+        skip = "--no-sb3"
+    if base:
         for r in rows:
-            print(f"  {r.name} x{r.seeds}: {r.rate / sb3.rate:.1f}x SB3 (wall), "
-                  f"{r.cpu_rate / sb3.cpu_rate:.1f}x (CPU)")
-    busy = [r for r in rows if r.cores > 1.2]
-    print("XLA CPU used more than one core in: "
-          + (", ".join(f"{r.name} x{r.seeds} ({r.cores:.2f})" for r in busy) or "no run"))
+            print(f"  {r.name} x{r.seeds}: {r.rate / base.rate:.1f}x SB3 (wall), "
+                  f"{r.cpu_rate / base.cpu_rate:.1f}x (per CPU-second)")
+    for r in rows:
+        share = 100 * r.gflops / r.core_gflops
+        print(f"  {r.name} x{r.seeds}: {r.gflops:.1f} GFLOP/s = {share:.0f}% of NumPy on one "
+              f"core, {100 * r.gflops / r.machine_gflops:.0f}% of the machine (same shapes)")
+    ours = [r for r in rows if not r.name.startswith("SB3")]
+    busy = [f"{r.name} x{r.seeds} ({r.cores:.2f})" for r in ours if r.cores > 1.2]
+    print("XLA CPU kept more than one core busy in: " + (", ".join(busy) or "no run")
+          + f" (CPU/wall: {', '.join(f'{r.cores:.2f}' for r in ours)})")
+    if args.pieces:
+        print("where the time goes (one seed, ms per env step):")
+        pieces()
 
-    text = markdown(rows, sb3, peak, args, (load_start, load()), xla)
+    text = markdown(rows, base, skip, args, (load_start, load()), xla, big)
     print("\n" + text)
     if args.write:
         write_section(text)

@@ -97,7 +97,7 @@ def _quick_agent(algo: str, task: str) -> Any:
 _BUDGETS = {
     ("paper", "puck"): (3000, 20, 200),
     ("paper", "arm"): (3000, 20, 100),
-    ("quick", "puck"): (1000, 10, 100),
+    ("quick", "puck"): (1500, 10, 100),
     ("quick", "arm"): (600, 10, 100),
 }
 
