@@ -2,9 +2,10 @@
 
     .venv/bin/python benchmarks/throughput.py                  # prints the table
     .venv/bin/python benchmarks/throughput.py --write          # ... and writes docs/performance.md
-    .venv/bin/python benchmarks/throughput.py --episodes 40 --repeats 5 --sb3-steps 5000
+    .venv/bin/python benchmarks/throughput.py --pieces         # ... and times the parts of a step
+    .venv/bin/python benchmarks/throughput.py --algos ddpg --seeds 1 --no-sb3   # a quick look
 
-What is measured (all on CPU, with the default thread settings of JAX/XLA, NumPy and torch):
+What is measured (all on CPU, default thread settings unless said otherwise):
 
 * **ours**: :class:`hiddpg.train.Trainer` with the ``paper`` preset on ``PuckTrajectory2``
   (actor, critic and models 300-300, batch 64) and ``agent.learning_starts=0`` (so every step
@@ -14,19 +15,24 @@ What is measured (all on CPU, with the default thread settings of JAX/XLA, NumPy
   that closes a chunk is not counted, its time is).
 * **SB3**: ``stable_baselines3.DDPG`` on ``gym.make("hiddpg/PuckTrajectory2-v0")`` (our
   Gymnasium adapter), CPU torch, ``net_arch`` 300-300 for actor and critic, batch 64,
-  ``train_freq=1``, ``gradient_steps=1``, ``learning_starts=0``. A short ``learn`` warms up,
-  then ``learn(--sb3-steps)`` is timed. Skipped with a message when SB3 is not installed
+  ``train_freq=1``, ``gradient_steps=1``, ``learning_starts=0``, in a fresh process (so no JAX
+  thread pool competes with torch's), once with torch's default threads and once with one
+  thread; the ratios divide by the stronger of the two (per wall-clock second and per
+  CPU-second separately). A short ``learn`` warms up, then
+  ``learn(--sb3-steps)`` is timed. Skipped with a message when SB3 is not installed
   (``pip install torch stable-baselines3``; neither is a dependency of hiddpg).
 
-Steps per second are given per wall-clock second (best of the repeats) and per CPU-second of
-this process (``time.process_time``, all threads), which stays meaningful when other jobs share
-the cores; CPU/wall > 1 means more than one core was busy.
+Steps per second are given per wall-clock second (best and median of the repeats) and per
+CPU-second of this process (``time.process_time``, all threads), which stays meaningful when
+other jobs share the cores; CPU/wall > 1 means more than one core was busy.
 
 The fraction of the matrix-multiply peak divides the matmul FLOPs a step executes
 (:func:`flops_per_step`, formula below) by NumPy's GFLOP/s on the same matmul shapes
 (float32, forward ``(B, in) @ (in, out)``, weight gradient ``(in, B) @ (B, out)``, input
-gradient ``(B, out) @ (out, in)``) timed here. The FLOP formula is cross-checked against XLA's
-own cost analysis of one jitted update.
+gradient ``(B, out) @ (out, in)``), timed in fresh processes with one BLAS thread (one core)
+and with the default threads (the machine; multi-threaded OpenBLAS collapses on small shapes
+when another job holds a core, so the machine figure is at least cores x the one-thread one).
+The FLOP formula is cross-checked against XLA's own cost analysis of one jitted update.
 """
 
 from __future__ import annotations
@@ -85,9 +91,9 @@ SECTION = "## Training throughput"
 #
 # Flat DDPG, per env step: one block update (batch 64) + the actor on one observation.
 # HI-DDPG, per env step: one low-level update, one high-level update and both actors on one
-# observation. The high level only *learns* at the end of a segment, but under ``vmap`` its
-# ``lax.cond`` is a select, so its update is *executed* every step: that is what is counted
-# (``useful`` FLOPs, with the high update only at segment ends, are lower).
+# observation. The paper preset sets ``high_update_on="step"`` (the high level learns every
+# step); with ``"segment"`` it learns at segment ends only, but under ``vmap`` its ``lax.cond``
+# is a select, so its update is still *executed* every step: either way that is what is counted.
 # SB3 DDPG, per env step: its critic takes [s, a] at the input and its actor loss
 # -Q(s, mu(s)) backpropagates through the critic's weights too (they are computed and discarded):
 #     target F(A) + F(C); critic F(C) + W(C) + X1(C); actor F(A) + F(C) + W(C) + X(C) + W(A) + X1(A)
@@ -309,6 +315,7 @@ class Row:
     machine_gflops: float = float("nan")  # NumPy, whole machine, this row's matmul shapes
     compile_s: float = 0.0
     note: str = ""
+    load: float = dataclasses.field(default_factory=lambda: load())  # when the row ended
 
     @property
     def best(self) -> int:
@@ -511,29 +518,32 @@ def machine(loads: tuple[float, float]) -> str:
             f"{loads[0]:.1f} at the start and {loads[1]:.1f} at the end of the run")
 
 
-def markdown(rows: list[Row], base: Row | None, skip: str, args: argparse.Namespace,
+def markdown(rows: list[Row], base: tuple[Row, Row] | None, skip: str, args: argparse.Namespace,
              loads: tuple[float, float], xla: dict[str, tuple[int, float | None]],
              big: tuple[float, float]) -> str:
     head = ("| run | seeds | env steps/s (wall, best) | median | per CPU-second | CPU/wall | "
             "÷ SB3 (wall) | ÷ SB3 (CPU) | matmul MFLOP/step | GFLOP/s | % of NumPy, 1 core | "
-            "% of NumPy, machine |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
-            "---:|\n")
+            "% of NumPy, machine | load |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+            "---:|---:|---:|\n")
     body = ""
     for r in rows:
-        ratio = f"{r.rate / base.rate:.1f}×" if base else "n/a"
-        cpu_ratio = f"{r.cpu_rate / base.cpu_rate:.1f}×" if base else "n/a"
+        ratio = f"{r.rate / base[0].rate:.1f}×" if base else "n/a"
+        cpu_ratio = f"{r.cpu_rate / base[1].cpu_rate:.1f}×" if base else "n/a"
         body += (f"| {r.name} | {r.seeds} | {r.rate:,.0f} | {r.median_rate:,.0f} | "
                  f"{r.cpu_rate:,.0f} | {r.cores:.2f} | {ratio} | {cpu_ratio} | "
                  f"{r.flops / 1e6:.0f} | {r.gflops:.1f} | "
                  f"{100 * r.gflops / r.core_gflops:.0f}% of {r.core_gflops:.0f} | "
-                 f"{100 * r.gflops / r.machine_gflops:.0f}% of {r.machine_gflops:.0f} |\n")
+                 f"{100 * r.gflops / r.machine_gflops:.0f}% of {r.machine_gflops:.0f} | "
+                 f"{r.load:.1f} |\n")
     checks = "; ".join(
         f"{algo} {ours / 1e6:.0f} MFLOP by the formula, {x / 1e6:.0f} by XLA"
         for algo, (ours, x) in xla.items() if x is not None)
     sb3 = [r for r in rows if r.name.startswith("SB3")]
     sb3_note = sb3[0].note if sb3 else f"SB3 skipped: {skip}"
-    base_note = (f"the ratios divide by the faster SB3 row ({base.name})" if base
-                 else "no SB3 baseline")
+    base_note = (f"the wall ratio divides by the SB3 row with the most steps per second "
+                 f"({base[0].name}), the CPU ratio by the one with the most per CPU-second "
+                 f"({base[1].name})" if base else "no SB3 baseline")
+    high_on = ours_config("hi-ddpg", 1, 1).agent.high_update_on
     cmd = (f".venv/bin/python benchmarks/throughput.py --episodes {args.episodes} "
            f"--repeats {args.repeats} --sb3-steps {args.sb3_steps} --write")
     return (
@@ -552,10 +562,11 @@ def markdown(rows: list[Row], base: Row | None, skip: str, args: argparse.Namesp
         f"`learn({args.sb3_steps})` after a warm-up, best of {args.repeats}; {base_note}.\n"
         "* Per CPU-second divides by the CPU time of the process (all its threads), which "
         "stays meaningful when other jobs share the cores; CPU/wall is the mean number of "
-        "busy cores.\n"
-        "* Matmul MFLOP per env step by the formula in the script (HI-DDPG: low- and "
-        "high-level updates, the latter executed every step because `lax.cond` is a select "
-        "under `vmap`); cross-checked against XLA's cost analysis of one update (all ops): "
+        "busy cores; load is the 1-minute load average when the row was measured.\n"
+        "* Matmul MFLOP per env step by the formula in the script (HI-DDPG: a low- and a "
+        f"high-level update every step: `high_update_on={high_on!r}`, and under `vmap` "
+        "`lax.cond` is a select anyway); cross-checked against XLA's cost analysis of one "
+        "update (all ops): "
         f"{checks or 'n/a'}. % of NumPy divides the achieved GFLOP/s by NumPy's float32 "
         "GFLOP/s on the same matmul shapes, measured in a fresh process with one BLAS thread "
         "(1 core) and for the machine (the larger of the default-thread measurement and "
@@ -627,7 +638,7 @@ def main() -> None:
                   f"{row.cores:.2f}, compile + 1st chunk {row.compile_s:.1f} s, "
                   f"{row.gflops:.1f} GFLOP/s", flush=True)
 
-    base, skip = None, ""
+    sb3_rows, skip = [], ""
     if not args.no_sb3:
         for threads in (None, 1):
             sb3 = time_sb3(threads, args.sb3_steps, args.sb3_warmup, args.repeats)
@@ -640,13 +651,15 @@ def main() -> None:
             print(f"{sb3.name:16s}: {sb3.rate:8,.0f} steps/s (median {sb3.median_rate:,.0f}), "
                   f"{sb3.cpu_rate:8,.0f} per CPU-s, CPU/wall {sb3.cores:.2f}, "
                   f"{sb3.gflops:.1f} GFLOP/s; {sb3.note}", flush=True)
-            base = sb3 if base is None or sb3.rate > base.rate else base
+            sb3_rows.append(sb3)
     else:
         skip = "--no-sb3"
-    if base:
+    base = None
+    if sb3_rows:  # the strongest baseline: fastest per wall-clock and per CPU-second
+        base = (max(sb3_rows, key=lambda r: r.rate), max(sb3_rows, key=lambda r: r.cpu_rate))
         for r in rows:
-            print(f"  {r.name} x{r.seeds}: {r.rate / base.rate:.1f}x SB3 (wall), "
-                  f"{r.cpu_rate / base.cpu_rate:.1f}x (per CPU-second)")
+            print(f"  {r.name} x{r.seeds}: {r.rate / base[0].rate:.1f}x SB3 (wall), "
+                  f"{r.cpu_rate / base[1].cpu_rate:.1f}x (per CPU-second)")
     for r in rows:
         share = 100 * r.gflops / r.core_gflops
         print(f"  {r.name} x{r.seeds}: {r.gflops:.1f} GFLOP/s = {share:.0f}% of NumPy on one "
