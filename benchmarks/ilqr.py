@@ -10,7 +10,7 @@ Problems (spec ``algorithms.md`` §5, the paper's Fig. 5 "standard controller"):
 
 Usage::
 
-    python benchmarks/ilqr.py [--repeats 20] [--write FILE]  (results are kept in docs/performance.md, section iLQR)
+    python benchmarks/ilqr.py [--repeats 20] [--write FILE]   (results: docs/performance.md)
 """
 
 from __future__ import annotations
