@@ -21,6 +21,8 @@ from typing import Any
 import jax
 import numpy as np
 
+from hiddpg.commands.common import Parser as _Parser
+from hiddpg.commands.common import UsageError
 from hiddpg.runs import Run, make_trainer
 
 PROG = "hiddpg eval"
@@ -29,13 +31,6 @@ MAX_FPS = 25.0
 COLUMNS = ("return", "env_return", "switches", "length")
 
 
-class UsageError(ValueError):
-    pass
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise UsageError(message)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -17,16 +17,12 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from hiddpg.commands.common import Parser as _Parser
+from hiddpg.commands.common import UsageError
+
 PROG = "hiddpg plot"
 
 
-class UsageError(ValueError):
-    pass
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise UsageError(message)
 
 
 def build_parser() -> argparse.ArgumentParser:

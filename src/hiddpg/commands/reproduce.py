@@ -19,6 +19,8 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 
+from hiddpg.commands.common import Parser as _Parser
+from hiddpg.commands.common import UsageError
 from hiddpg.experiments.common import SCALES, Context, budget_table
 from hiddpg.experiments.rundata import ExperimentError
 
@@ -26,13 +28,6 @@ PROG = "hiddpg reproduce"
 FIGURES = ("fig3", "fig4", "fig5", "fig6", "fig7", "fig8")
 
 
-class UsageError(ValueError):
-    pass
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise UsageError(message)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -33,6 +33,7 @@ import numpy as np
 
 from hiddpg import sweep
 from hiddpg.commands import train as train_cmd
+from hiddpg.commands.common import Parser as _Parser
 from hiddpg.runs import PROGRESS_FILE, Run
 
 PROG = "hiddpg sweep"
@@ -42,10 +43,6 @@ POLL_S = 0.5
 #: the progress files of all runs are read at most this often
 READ_EVERY_S = 2.0
 
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise train_cmd.UsageError(message)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -23,19 +23,14 @@ from pathlib import Path
 
 import numpy as np
 
+from hiddpg.commands.common import Parser as _Parser
+from hiddpg.commands.common import UsageError
 from hiddpg.configs import ALGORITHMS
 from hiddpg.runs import Run, default_name, find_non_finite, make_trainer
 
 PROG = "hiddpg train"
 
 
-class UsageError(ValueError):
-    """A bad command line or config: reported as one line, exit code 2."""
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise UsageError(message)
 
 
 def build_parser() -> argparse.ArgumentParser:
