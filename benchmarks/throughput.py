@@ -204,6 +204,21 @@ def flops_per_step(algo: str, trainer: Trainer | None = None) -> Count:
         c.fwd(actor, 1)
         return c
     agent = trainer.agent
+    if algo == "h-ddpg":
+        # K skill blocks (all updated every step, vmapped over the skill axis) + the DQN meta
+        # critic: online forward, target forward, backward for the weights; + acting.
+        hidden = tuple(cfg.skill.hidden)
+        actor = mlp(env.obs_dim, hidden, agent.patterns.actor_dim)
+        critic = critic_layers(env.obs_dim, agent.patterns.actor_dim, hidden)
+        for _ in range(agent.n_skills):
+            block_update(c, actor, critic, cfg.skill.batch_size)
+            c.fwd(actor, 1)
+        meta = mlp(env.obs_dim, tuple(cfg.meta_hidden), agent.n_skills)
+        c.fwd(meta, cfg.meta_batch_size)
+        c.fwd(meta, cfg.meta_batch_size)
+        c.wgrad(meta, cfg.meta_batch_size)
+        c.fwd(meta, 1)
+        return c
     for level in (agent.low, agent.high):
         hidden = tuple(level.config.hidden)
         d_in = level.state_dim + level.context_dim
@@ -234,6 +249,8 @@ def xla_update_flops(algo: str, trainer: Trainer) -> float | None:
                      "reward": jnp.zeros((b,)), "next_obs": jnp.zeros((b, trainer.env.obs_dim)),
                      "terminated": jnp.zeros((b,), bool)}
             return flops(block.update, block.init(key), batch)
+        if algo == "h-ddpg":
+            return None  # no single update function to analyse; the formula stands alone
         return sum(flops(level.update, level.init(key), key) for level in (agent.low, agent.high))
     except Exception as err:  # noqa: BLE001 - a cross-check only
         print(f"  (XLA cost analysis unavailable: {err})")
@@ -244,6 +261,8 @@ def xla_update_flops(algo: str, trainer: Trainer) -> float | None:
 def numpy_gflops(matmuls: dict[Matmul, int], min_time: float = 0.3, repeats: int = 5) -> float:
     """GFLOP/s of NumPy (float32) executing exactly ``matmuls`` (each shape its number of
     times) back to back, best of ``repeats`` timings of at least ``min_time`` seconds."""
+    if not matmuls:
+        return float("nan")
     rng = np.random.default_rng(0)
     work = []
     for (m, k, n), t in matmuls.items():
@@ -344,13 +363,17 @@ class Row:
 
 def ours_config(algo: str, episodes: int, repeats: int):
     sets = [f"episodes={episodes * (repeats + 1)}", f"eval_every={episodes}",
-            f"chunk_episodes={episodes}", "agent.learning_starts=0"]
-    if algo != "ddpg":
+            f"chunk_episodes={episodes}"]
+    if algo == "h-ddpg":
+        sets.append("agent.skill.learning_starts=0")
+    else:
+        sets.append("agent.learning_starts=0")
+    if algo in ("hi-ddpg", "hi-ddpg-wo-model"):
         sets.append("agent.high_learning_starts=0")
     return make_config(algo, TASK, "paper", sets)
 
 
-NAMES = {"ddpg": "DDPG (ours)", "hi-ddpg": "HI-DDPG (ours)"}
+NAMES = {"ddpg": "DDPG (ours)", "hi-ddpg": "HI-DDPG (ours)", "h-ddpg": "h-DDPG (ours)"}
 
 
 def time_ours(algo: str, seeds: int, episodes: int, repeats: int) -> Row:
@@ -544,7 +567,8 @@ def markdown(rows: list[Row], base: tuple[Row, Row] | None, skip: str, args: arg
                  f"({base[0].name}), the CPU ratio by the one with the most per CPU-second "
                  f"({base[1].name})" if base else "no SB3 baseline")
     high_on = ours_config("hi-ddpg", 1, 1).agent.high_update_on
-    cmd = (f".venv/bin/python benchmarks/throughput.py --episodes {args.episodes} "
+    cmd = (f".venv/bin/python benchmarks/throughput.py --algos {' '.join(args.algos)} "
+           f"--seeds {' '.join(map(str, args.seeds))} --episodes {args.episodes} "
            f"--repeats {args.repeats} --sb3-steps {args.sb3_steps} --write")
     return (
         f"{SECTION}\n\n"
@@ -590,7 +614,7 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=20, help="episodes per seed per chunk")
     parser.add_argument("--repeats", type=int, default=3, help="timed chunks / SB3 runs")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 15])
-    parser.add_argument("--algos", nargs="+", default=["ddpg", "hi-ddpg"])
+    parser.add_argument("--algos", nargs="+", default=["ddpg", "hi-ddpg", "h-ddpg"])
     parser.add_argument("--sb3-steps", type=int, default=2000)
     parser.add_argument("--sb3-warmup", type=int, default=200)
     parser.add_argument("--no-sb3", action="store_true")
