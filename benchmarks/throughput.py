@@ -51,12 +51,16 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import jax
-import jax.numpy as jnp
-import numpy as np
+from hiddpg.devices import request_cpu_devices
 
-from hiddpg.presets import make_config
-from hiddpg.train import Trainer, seed_keys
+request_cpu_devices()  # as the hiddpg command does: one CPU device per core (hiddpg.devices)
+
+import jax  # noqa: E402  (after the device request)
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+
+from hiddpg.presets import make_config  # noqa: E402
+from hiddpg.train import Trainer, seed_keys  # noqa: E402
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "performance.md"
 TASK = "PuckTrajectory2"
@@ -145,7 +149,7 @@ class Count:
 
     @property
     def flops(self) -> int:
-        return sum(2 * m * k * n * t for (m, k, n), t in self.matmuls.items())
+        return int(sum(2 * m * k * n * t for (m, k, n), t in self.matmuls.items()))
 
 
 def block_update(c: Count, actor: list[Layer], critic: list[Layer], b: int) -> None:
@@ -176,8 +180,12 @@ def level_update(c: Count, actor: list[Layer], critic: list[Layer], model: list[
         c.xgrad(model, b)
 
 
-def flops_per_step(algo: str, trainer: Trainer | None = None) -> Count:
-    """The matmuls one environment step of ``algo`` executes (``"sb3"``: SB3's DDPG)."""
+def flops_per_step(algo: str, trainer: Trainer | None = None, high_updates: float = 1.0
+                   ) -> Count:
+    """The matmuls one environment step of ``algo`` executes (``"sb3"``: SB3's DDPG);
+    HI-DDPG's high level updates ``high_updates`` times per env step (1 with the preset's
+    ``high_update_on="step"``, segments / steps with Alg. 1's ``"segment"``)."""
+    algo = algo.split("@")[0]
     c = Count()
     if algo == "sb3":  # PuckTrajectory2: obs 4, action 2, net_arch 300-300, batch 64
         actor, critic, b = mlp(4, (300, 300), 2), mlp(4 + 2, (300, 300), 1), 64
@@ -219,14 +227,17 @@ def flops_per_step(algo: str, trainer: Trainer | None = None) -> Count:
         c.wgrad(meta, cfg.meta_batch_size)
         c.fwd(meta, 1)
         return c
-    for level in (agent.low, agent.high):
+    for level, times in ((agent.low, 1.0), (agent.high, high_updates)):
         hidden = tuple(level.config.hidden)
         d_in = level.state_dim + level.context_dim
         actor = mlp(d_in, hidden, level.action_dim)
         critic = critic_layers(d_in, level.action_dim, hidden)
         model = mlp(level.state_dim + level.action_dim, hidden, level.state_dim)
-        level_update(c, actor, critic, model, level.config.batch_size,
+        update = Count()
+        level_update(update, actor, critic, model, level.config.batch_size,
                      use_model=level.use_model, model_gradient=level.model_weight > 0)
+        for shape, t in update.matmuls.items():
+            c.add(shape, t if times == 1.0 else t * times)
         c.fwd(actor, 1)
     return c
 
@@ -361,9 +372,14 @@ class Row:
         return self.rate * self.flops / 1e9
 
 
+#: benchmark variants ``ALGO@NAME``: the preset plus these overrides
+VARIANTS = {"segment": ["agent.high_update_on=segment"]}
+
+
 def ours_config(algo: str, episodes: int, repeats: int):
+    algo, _, variant = algo.partition("@")
     sets = [f"episodes={episodes * (repeats + 1)}", f"eval_every={episodes}",
-            f"chunk_episodes={episodes}"]
+            f"chunk_episodes={episodes}", *VARIANTS.get(variant, [])]
     if algo == "h-ddpg":
         sets.append("agent.skill.learning_starts=0")
     else:
@@ -373,7 +389,8 @@ def ours_config(algo: str, episodes: int, repeats: int):
     return make_config(algo, TASK, "paper", sets)
 
 
-NAMES = {"ddpg": "DDPG (ours)", "hi-ddpg": "HI-DDPG (ours)", "h-ddpg": "h-DDPG (ours)"}
+NAMES = {"ddpg": "DDPG (ours)", "hi-ddpg": "HI-DDPG (ours)", "h-ddpg": "h-DDPG (ours)",
+         "hi-ddpg@segment": "HI-DDPG (ours), Alg. 1 schedule: H updates at segment ends"}
 
 
 def time_ours(algo: str, seeds: int, episodes: int, repeats: int) -> Row:
@@ -397,8 +414,13 @@ def time_ours(algo: str, seeds: int, episodes: int, repeats: int) -> Row:
         state = out[0]
     steps = int(np.asarray(out[1]["length"]).sum())  # seeds x episodes x 30
     assert steps == seeds * episodes * HORIZON, steps
+    high = 1.0
+    if trainer.config.algo.startswith("hi-ddpg") and (
+            trainer.config.agent.high_update_on == "segment"):  # one H update per segment
+        high = float((np.asarray(out[1]["switches"]) + 1).sum()) / steps
     return Row(NAMES.get(algo, algo), seeds, steps, walls, cpus,
-               flops_per_step(algo, trainer).flops, compile_s=compile_s)
+               flops_per_step(algo, trainer, high).flops, compile_s=compile_s,
+               note=f"{high:.3f} high-level updates per step" if high < 1 else "")
 
 
 def _sb3_worker(threads: int, steps: int, warmup: int, repeats: int) -> dict:

@@ -7,7 +7,10 @@ one chunk and many, take the same code path:
 
 * a chunk is ``chunk_episodes`` episodes: an outer ``lax.scan`` over evaluation blocks of
   ``eval_every`` training episodes followed by one noise-free evaluation episode;
-* seeds are a leading axis on the run state: ``jax.vmap`` over :meth:`Trainer.init` keys.
+* seeds are a leading axis on the run state: ``jax.vmap`` over :meth:`Trainer.init` keys,
+  with the axis name :data:`~hiddpg.agents.gate.SEED_AXIS` so that skipped updates stay real
+  branches (:func:`hiddpg.agents.gate.gated`), spread over the devices (one CPU device per core
+  under the ``hiddpg`` command, see :mod:`hiddpg.devices`).
 
 The engine knows nothing about an agent's inside (see :mod:`hiddpg.agents.base`).
 """
@@ -21,9 +24,12 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 from flax import struct
+from jax.sharding import PartitionSpec
 
 from hiddpg.agents import make_agent
+from hiddpg.agents.gate import SEED_AXIS
 from hiddpg.configs import TrainConfig
+from hiddpg.devices import DEVICE_AXIS, batch_seeds, padding, seed_mesh
 from hiddpg.envs import make as make_env
 
 
@@ -101,7 +107,32 @@ class Trainer:
 
     @partial(jax.jit, static_argnums=(0, 2), donate_argnums=1)
     def run_chunk_seeds(self, state: RunState, n_episodes: int) -> tuple[RunState, dict, dict]:
-        return jax.vmap(lambda s: self.run_chunk(s, n_episodes))(state)
+        """:meth:`run_chunk` for every seed of ``state`` (leading axis).
+
+        Seeds are spread over the devices of :func:`hiddpg.devices.seed_mesh` (padding seeds
+        repeat the last one and are dropped); on each device they are batched as
+        :func:`hiddpg.devices.batch_seeds` says: one after another (``lax.map``, CPU) or
+        ``vmap`` named :data:`SEED_AXIS` (accelerators).
+        """
+        n_seeds = jax.tree.leaves(state)[0].shape[0]
+        run = partial(self.run_chunk, n_episodes=n_episodes)
+        if n_seeds == 1:
+            return jax.tree.map(lambda x: x[None], run(jax.tree.map(lambda x: x[0], state)))
+        if batch_seeds():
+            per_device = jax.vmap(run, axis_name=SEED_AXIS)
+        else:
+            per_device = partial(jax.lax.map, run)
+        mesh = seed_mesh(n_seeds)
+        if mesh is None:
+            return per_device(state)
+        pad = padding(n_seeds, mesh.size)
+        if pad:
+            state = jax.tree.map(
+                lambda x: jnp.concatenate([x, jnp.repeat(x[-1:], pad, axis=0)]), state)
+        spec = PartitionSpec(DEVICE_AXIS)
+        out = jax.shard_map(per_device, mesh=mesh, in_specs=spec, out_specs=spec,
+                            check_vma=False)(state)
+        return jax.tree.map(lambda x: x[:n_seeds], out) if pad else out
 
     @partial(jax.jit, static_argnums=0)
     def evaluate_seeds(self, state: RunState, keys: jax.Array) -> tuple[dict, dict]:
@@ -134,7 +165,9 @@ class Trainer:
 
 def make_train(config: TrainConfig):
     """``train(key) -> (RunState, train_metrics, eval_metrics)`` for one seed, pure and
-    jittable: ``jax.jit(jax.vmap(make_train(cfg)))(seed_keys(range(15)))`` trains 15 seeds."""
+    jittable: ``jax.jit(jax.vmap(make_train(cfg), axis_name=SEED_AXIS))(seed_keys(range(15)))``
+    trains 15 seeds (without the axis name it gives the same result, computing every skipped
+    update as well)."""
     trainer = Trainer(config)
 
     def train(key: jax.Array):

@@ -32,6 +32,7 @@ from flax import struct
 from hiddpg.agents import buffer as replay
 from hiddpg.agents import noise
 from hiddpg.agents.block import BlockState, DDPGBlock
+from hiddpg.agents.gate import gated
 from hiddpg.configs import DDPGConfig
 from hiddpg.envs.base import Environment, affine_unit
 
@@ -165,7 +166,7 @@ class DDPGAgent:
             def skip(bs: BlockState) -> tuple[BlockState, jax.Array, jax.Array]:
                 return bs, f0, f0
 
-            block_state, closs, aloss = jax.lax.cond(do_update, learn, skip, agent.block)
+            block_state, closs, aloss = gated(do_update, learn, skip, agent.block)
             agent = agent.replace(block=block_state, buffer=buf,
                                   env_steps=agent.env_steps + alive.astype(jnp.int32))
             ended = jnp.asarray(res.terminated, bool) | jnp.asarray(res.truncated, bool)

@@ -40,6 +40,7 @@ from flax import struct
 from hiddpg.agents import buffer as replay
 from hiddpg.agents import noise
 from hiddpg.agents.block import BlockState, DDPGBlock
+from hiddpg.agents.gate import gated
 from hiddpg.agents.networks import FINAL_INIT_SCALE, MLP
 from hiddpg.agents.skills import SkillPatterns, skill_patterns
 from hiddpg.configs import HDDPGConfig
@@ -267,7 +268,8 @@ class HDDPG:
                              env_steps=agent.env_steps + alive.astype(jnp.int32))
 
     def _learn(self, agent: HDDPGState, sums: dict, key: jax.Array, do_learn: jax.Array):
-        """Meta-critic and skill updates, skipped (``lax.cond``) when ``do_learn`` is false."""
+        """Meta-critic and skill updates, skipped (:func:`~hiddpg.agents.gate.gated`) unless
+        ``do_learn``."""
         k_meta, k_skills = jax.random.split(key)
         f0 = jnp.zeros((), jnp.float32)
 
@@ -283,7 +285,7 @@ class HDDPG:
         def skip(a: HDDPGState):
             return a, (f0, f0, f0, f0, f0)
 
-        agent, losses = jax.lax.cond(do_learn, learn, skip, agent)
+        agent, losses = gated(do_learn, learn, skip, agent)
         return agent, {**sums, **{n: sums[n] + v for n, v in zip(_SUMS[1:], losses, strict=True)}}
 
     def _episode(self, key: jax.Array, state: HDDPGState, env_params: Any, train: bool):

@@ -24,6 +24,7 @@ from flax import struct
 
 from hiddpg.agents import buffer
 from hiddpg.agents.block import BlockState, DDPGBlock
+from hiddpg.agents.gate import gated
 from hiddpg.agents.model_grad import DynamicsModel, ModelState, batched_model_gradient
 from hiddpg.configs import LevelConfig
 
@@ -129,9 +130,8 @@ class Level:
         return state.replace(block=block_state, model=model_state), metrics
 
     def maybe_update(self, state: LevelState, key: jax.Array, do: jax.Array):
-        """:meth:`update` if ``do`` else nothing (``lax.cond``: a select under ``vmap``)."""
-        return jax.lax.cond(do, lambda s: self.update(s, key), lambda s: (s, zero_metrics()),
-                            state)
+        """:meth:`update` if ``do`` else nothing (a branch even under the seed ``vmap``)."""
+        return gated(do, lambda s: self.update(s, key), lambda s: (s, zero_metrics()), state)
 
 
 def zero_metrics() -> dict[str, Any]:

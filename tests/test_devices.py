@@ -1,0 +1,123 @@
+"""Seeds sharded over CPU devices: the flag, the padding, and the same results as one device."""
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from hiddpg import devices
+from hiddpg.devices import (
+    CPU_DEVICES_FLAG,
+    DEVICES_ENV,
+    SEEDS_ENV,
+    batch_seeds,
+    padding,
+    request_cpu_devices,
+)
+
+
+def test_request_sets_the_flag_once_and_respects_the_users(monkeypatch):
+    monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_enable_fast_math=false")
+    monkeypatch.delenv(DEVICES_ENV, raising=False)
+    assert request_cpu_devices(3) == 3
+    assert os.environ["XLA_FLAGS"] == f"--xla_cpu_enable_fast_math=false {CPU_DEVICES_FLAG}=3"
+    assert request_cpu_devices(5) is None  # already set: the first choice stays
+    assert os.environ["XLA_FLAGS"].count(CPU_DEVICES_FLAG) == 1
+
+
+def test_request_defaults_to_the_env_variable_then_the_cores(monkeypatch):
+    monkeypatch.delenv("XLA_FLAGS", raising=False)
+    monkeypatch.setenv(DEVICES_ENV, "1")
+    assert request_cpu_devices() == 1
+    monkeypatch.delenv("XLA_FLAGS")
+    monkeypatch.delenv(DEVICES_ENV)
+    assert request_cpu_devices() == len(os.sched_getaffinity(0))
+
+
+@pytest.mark.parametrize("bad", ["zero", "0", "-2", ""])
+def test_a_bad_device_count_is_named(monkeypatch, bad):
+    monkeypatch.delenv("XLA_FLAGS", raising=False)
+    monkeypatch.setenv(DEVICES_ENV, bad)
+    with pytest.raises(ValueError, match=f"{DEVICES_ENV}='{bad}'.*positive integer"):
+        request_cpu_devices()
+
+
+def test_padding_and_mesh():
+    assert [padding(n, 2) for n in (1, 2, 3, 15, 16)] == [1, 0, 1, 1, 0]
+    assert padding(15, 4) == 1 and padding(7, 7) == 0
+    assert devices.seed_mesh(1) is None  # one seed: nothing to spread
+    assert devices.seed_mesh(15) is None  # this test process has one CPU device
+
+
+SCRIPT = textwrap.dedent("""
+    import os, sys
+    os.environ["XLA_FLAGS"] = "--xla_force_host_platform_device_count=" + sys.argv[1]
+    os.environ["HIDDPG_SEEDS_ON_DEVICE"] = sys.argv[2]
+    import jax, numpy as np
+    from hiddpg.presets import make_config
+    from hiddpg.train import Trainer, seed_keys
+    cfg = make_config("hi-ddpg", "PuckTrajectory1", "quick", [
+        "episodes=4", "eval_every=2", "agent.low.hidden=[16,16]", "agent.high.hidden=[16,16]",
+        "agent.learning_starts=30", "agent.pretrain_episodes=1", "agent.high_learning_starts=2",
+        "agent.low.batch_size=8", "agent.high.batch_size=8"])
+    trainer = Trainer(cfg)
+    out = {}
+    for seeds in ([0, 1, 2], [1]):
+        state, tm, em = trainer.run_chunk_seeds(trainer.init_seeds(seed_keys(seeds)), 4)
+        leaves = jax.tree.leaves((state, tm, em))
+        out.update({f"{len(seeds)}_{i}": np.asarray(x) for i, x in enumerate(leaves)})
+        out[f"{len(seeds)}_devices"] = np.array(len(state.key.sharding.device_set))
+    np.savez(sys.argv[3], **out)
+""")
+
+
+def run_script(tmp_path, devices: int, mode: str):
+    path = tmp_path / f"{devices}-{mode}.npz"
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    subprocess.run([sys.executable, "-c", SCRIPT, str(devices), mode, str(path)], check=True,
+                   env=env, timeout=600)
+    z = np.load(path)
+    return {k: z[k] for k in z.files}
+
+
+def state_keys(out, n_seeds):
+    return [k for k in out if k.startswith(f"{n_seeds}_") and "devices" not in k]
+
+
+@pytest.mark.slow
+def test_seeds_on_cpu_devices_are_bitwise_independent_of_the_split(tmp_path):
+    """CPU default (seeds one after another per device): 3 seeds on 1 or 2 devices and seed 1
+    alone compute exactly the same numbers."""
+    one, two = run_script(tmp_path, 1, "map"), run_script(tmp_path, 2, "map")
+    assert int(one["3_devices"]) == 1 and int(two["3_devices"]) == 2  # 3 seeds (+1 pad) sharded
+    keys = state_keys(one, 3)
+    assert len(keys) > 100  # the whole run state and every metric
+    for k in keys:
+        np.testing.assert_array_equal(two[k], one[k], err_msg=k)
+    for i in range(len(state_keys(one, 1))):  # seed 1 of the three == seed 1 alone
+        np.testing.assert_array_equal(two[f"3_{i}"][1], one[f"1_{i}"][0])
+
+
+@pytest.mark.slow
+def test_vmapped_seeds_on_devices_match_within_rounding(tmp_path):
+    """Accelerator mode (a vmap per device) forced on CPU: batched matmuls of 2 seeds per
+    device round differently from unbatched ones in the last bit only."""
+    ref, vm = run_script(tmp_path, 1, "map"), run_script(tmp_path, 2, "vmap")
+    assert int(vm["3_devices"]) == 2
+    for k in state_keys(ref, 3):
+        np.testing.assert_allclose(vm[k], ref[k], rtol=1e-5, atol=1e-5, err_msg=k)
+
+
+def test_seeds_on_device_choice(monkeypatch):
+    monkeypatch.setenv(SEEDS_ENV, "vmap")
+    assert batch_seeds()
+    monkeypatch.setenv(SEEDS_ENV, "map")
+    assert not batch_seeds()
+    monkeypatch.delenv(SEEDS_ENV)
+    assert not batch_seeds()  # CPU: one after another
+    monkeypatch.setenv(SEEDS_ENV, "pmap")
+    with pytest.raises(ValueError, match="HIDDPG_SEEDS_ON_DEVICE='pmap'.*'vmap' or 'map'"):
+        batch_seeds()
