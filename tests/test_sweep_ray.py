@@ -223,3 +223,15 @@ def test_ray_sweep_survives_a_killed_worker(cluster, tmp_path):
             (local / name / runs.METRICS_FILE).read_bytes(), name
     print(f"ray sweep {t_ray:.0f} s (killed {killed} at episode {at}), "
           f"local sweep {t_local:.0f} s")
+
+
+def test_task_environment_gives_cpu_tasks_one_device_per_core(monkeypatch):
+    from hiddpg.sweep_ray import _env_vars
+
+    monkeypatch.delenv("XLA_FLAGS", raising=False)
+    assert _env_vars(0.0, 2.0) == {
+        "JAX_PLATFORMS": "cpu", "XLA_FLAGS": "--xla_force_host_platform_device_count=2"}
+    assert _env_vars(0.0, 0.5)["XLA_FLAGS"].endswith("=1")  # a fraction of a core: one device
+    monkeypatch.setenv("XLA_FLAGS", "--xla_force_host_platform_device_count=4")
+    assert _env_vars(0.0, 2.0)["XLA_FLAGS"] == "--xla_force_host_platform_device_count=4"
+    assert "XLA_FLAGS" not in _env_vars(1.0, 2.0)  # a GPU task: the GPU is the device

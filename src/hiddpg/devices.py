@@ -47,12 +47,18 @@ def request_cpu_devices(n: int | None = None) -> int | None:
                 raise ValueError(f"{DEVICES_ENV}={env!r}: expected a positive integer")
             n = int(env)
         else:
-            n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (
-                os.cpu_count() or 1)
+            n = cpu_cores()
     if n < 1:
         raise ValueError(f"n={n}: the number of CPU devices must be at least 1")
     os.environ["XLA_FLAGS"] = f"{flags} {CPU_DEVICES_FLAG}={n}".strip()
     return n
+
+
+def cpu_cores() -> int:
+    """The cores this process may run on."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
 
 
 def seed_mesh(n_seeds: int):

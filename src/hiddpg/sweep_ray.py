@@ -26,6 +26,7 @@ import ray
 
 from hiddpg import sweep
 from hiddpg.commands import train as train_cmd
+from hiddpg.devices import CPU_DEVICES_FLAG
 
 WAIT_S = 0.5
 
@@ -50,10 +51,14 @@ def train_task(run: sweep.SweepRun, out: str) -> int:
     return train_cmd.main(argv)
 
 
-def _env_vars(gpus_per_run: float) -> dict[str, str]:
-    """Keep JAX off GPUs a task did not reserve, and let fractional GPUs be shared."""
+def _env_vars(gpus_per_run: float, cpus_per_run: float = 1.0) -> dict[str, str]:
+    """Keep JAX off GPUs a task did not reserve, let fractional GPUs be shared, and give a
+    CPU task one XLA CPU device per reserved core (:mod:`hiddpg.devices`)."""
     if gpus_per_run == 0:
-        return {"JAX_PLATFORMS": "cpu"}
+        flags = os.environ.get("XLA_FLAGS", "")
+        if CPU_DEVICES_FLAG not in flags:
+            flags = f"{flags} {CPU_DEVICES_FLAG}={max(1, int(cpus_per_run))}".strip()
+        return {"JAX_PLATFORMS": "cpu", "XLA_FLAGS": flags}
     if gpus_per_run < 1:
         return {"XLA_PYTHON_CLIENT_PREALLOCATE": "false"}
     return {}
@@ -74,7 +79,7 @@ def run_ray(todo: list[sweep.SweepRun], out: Path, *, address: str | None = None
         raise sweep.SweepError(f"cannot reach the Ray cluster at {address or 'RAY_ADDRESS'}: "
                                f"{err}") from None
     task = ray.remote(max_calls=1)(train_task)
-    env = _env_vars(gpus_per_run)
+    env = _env_vars(gpus_per_run, cpus_per_run)
     refs = {}
     try:
         for run in todo:

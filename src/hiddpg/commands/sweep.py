@@ -34,6 +34,7 @@ import numpy as np
 from hiddpg import sweep
 from hiddpg.commands import train as train_cmd
 from hiddpg.commands.common import Parser as _Parser
+from hiddpg.devices import DEVICES_ENV, cpu_cores
 from hiddpg.runs import PROGRESS_FILE, Run
 
 PROG = "hiddpg sweep"
@@ -199,6 +200,8 @@ def run_parallel(todo: list[sweep.SweepRun], out: Path, workers: int, progress: 
     logs = out / sweep.SWEEP_DIR / "logs"
     logs.mkdir(parents=True, exist_ok=True)
     queue, running, codes = list(todo), {}, {}
+    env = dict(os.environ)  # share the cores: each worker gets cores // workers CPU devices
+    env.setdefault(DEVICES_ENV, str(max(1, cpu_cores() // workers)))
     try:
         while queue or running:
             while queue and len(running) < workers:
@@ -209,7 +212,7 @@ def run_parallel(todo: list[sweep.SweepRun], out: Path, workers: int, progress: 
                     continue
                 with open(logs / f"{run.name}.log", "ab") as log:
                     proc = subprocess.Popen([sys.executable, "-m", "hiddpg.cli", "train", *argv],
-                                            stdout=log, stderr=subprocess.STDOUT)
+                                            stdout=log, stderr=subprocess.STDOUT, env=env)
                 sweep.record_attempt(out, run, pid=proc.pid, start_episode=start)
                 running[proc] = run
             time.sleep(POLL_S)
