@@ -599,7 +599,10 @@ def markdown(rows: list[Row], base: tuple[Row, Row] | None, skip: str, args: arg
         "`agent.learning_starts=0`), measured by `benchmarks/throughput.py` on "
         f"{machine(loads)}, {time.strftime('%Y-%m-%d')}. Default thread settings for XLA "
         f"(XLA_FLAGS {os.environ.get('XLA_FLAGS', '') or 'unset'}); {sb3_note}.\n\n"
-        f"* Ours: `Trainer.run_chunk_seeds` on chunks of {args.episodes} episodes per seed "
+        f"* Ours: `Trainer.run_chunk_seeds` ({len(jax.devices())} XLA CPU devices, one per "
+        "core, as the `hiddpg` command sets up; several seeds are sharded over them and run "
+        "one after another on each, see `hiddpg.devices`) on chunks of "
+        f"{args.episodes} episodes per seed "
         "(+1 evaluation episode, timed but not counted) after a first chunk that compiles; "
         f"best and median of {args.repeats} chunks; steps = seeds × episodes × 30.\n"
         "* SB3: `DDPG('MlpPolicy', gym.make('hiddpg/PuckTrajectory2-v0'))` (our Gymnasium "
@@ -609,10 +612,11 @@ def markdown(rows: list[Row], base: tuple[Row, Row] | None, skip: str, args: arg
         "* Per CPU-second divides by the CPU time of the process (all its threads), which "
         "stays meaningful when other jobs share the cores; CPU/wall is the mean number of "
         "busy cores; load is the 1-minute load average when the row was measured.\n"
-        "* Matmul MFLOP per env step by the formula in the script (HI-DDPG: a low- and a "
-        f"high-level update every step: `high_update_on={high_on!r}`, and under `vmap` "
-        "`lax.cond` is a select anyway); cross-checked against XLA's cost analysis of one "
-        "update (all ops): "
+        "* Matmul MFLOP per env step by the formula in the script (HI-DDPG: a low-level "
+        f"update every step and, with the preset's `high_update_on={high_on!r}`, a high-level "
+        "one too; with Alg. 1's schedule (`hi-ddpg@segment`) a high-level update per segment, "
+        "counted from the measured segments per step); cross-checked against XLA's cost "
+        "analysis of one update (all ops): "
         f"{checks or 'n/a'}. % of NumPy divides the achieved GFLOP/s by NumPy's float32 "
         "GFLOP/s on the same matmul shapes, measured in a fresh process with one BLAS thread "
         "(1 core) and for the machine (the larger of the default-thread measurement and "
@@ -675,7 +679,8 @@ def main() -> None:
         trainer = Trainer(ours_config(algo, args.episodes, args.repeats))
         count = flops_per_step(algo, trainer)
         acting = sum(2 * m * k * n * t for (m, k, n), t in count.matmuls.items() if m == 1)
-        xla[algo] = (count.flops - acting, xla_update_flops(algo, trainer))
+        if "@" not in algo:  # variants share their algorithm's update
+            xla[algo] = (count.flops - acting, xla_update_flops(algo, trainer))
         for seeds in args.seeds:
             row = with_peaks(time_ours(algo, seeds, args.episodes, args.repeats), algo)
             rows.append(row)
