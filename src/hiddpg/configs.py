@@ -97,6 +97,13 @@ class DDPGConfig:
     lr_decay: float = 1.0
     """Learning rates are multiplied by this every ``lr_decay_every`` episodes (1 = off)."""
     lr_decay_every: int = 50
+    end_is_terminal: bool = False
+    """Treat the end of every episode as terminal in the value targets: no bootstrap at the time
+    limit either (the paper's arm rule, §III-B: "the target action-state value for the final
+    step in each episode was assigned with the reward of the final step"). False: time-limit
+    ends bootstrap (spec §3 decision). The presets set it on tasks that terminate (obstacles):
+    there, bootstrapping an infinite-horizon value at the time limit makes a collision look
+    cheaper than going on (docs/algorithms.md)."""
 
     def __post_init__(self) -> None:
         _hidden(self)
@@ -131,6 +138,13 @@ class LevelConfig:
     action_l2: float = 0.0
     """Penalty weight on the squared unit action in the actor's objective (Andrychowicz et
     al. 2017) [decision; 0 = the paper's plain DPG]."""
+    end_is_terminal: bool = False
+    """Treat the end of every episode as terminal in the value targets: no bootstrap at the time
+    limit either (the paper's arm rule, §III-B: "the target action-state value for the final
+    step in each episode was assigned with the reward of the final step"). False: time-limit
+    ends bootstrap (spec §3 decision). The presets set it on tasks that terminate (obstacles):
+    there, bootstrapping an infinite-horizon value at the time limit makes a collision look
+    cheaper than going on (docs/algorithms.md)."""
 
     def __post_init__(self) -> None:
         _hidden(self)

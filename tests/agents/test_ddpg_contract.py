@@ -44,6 +44,18 @@ def test_truncation_bootstraps():
     assert probes.q_value(agent, state, 0.0) == pytest.approx(1 / (1 - 0.5), abs=0.1)
 
 
+def test_end_is_terminal_stops_the_bootstrap_at_the_time_limit():
+    """The paper's arm rule: the last step's target is its reward, time limit or not."""
+    env = probes.TruncatedReward()
+    cfg = DDPGConfig(**{**SMALL, "gamma": 0.5, "lr_decay": 1.0, "batch_size": 64,
+                        "learning_starts": 64, "end_is_terminal": True})
+    agent = make_ddpg(cfg, env)
+    state, metrics = probes.make_train(agent, env.default_params(), 600)(jax.random.PRNGKey(0))
+    np.testing.assert_array_equal(metrics["length"], 1)
+    assert bool(np.all(np.asarray(state.buffer.data["terminated"][: int(state.buffer.size)])))
+    assert probes.q_value(agent, state, 0.0) == pytest.approx(1.0, abs=0.1)  # not 1 / (1 - γ)
+
+
 def test_steps_after_the_episode_end_are_masked():
     _, _, _, state, m = two_step()
     starts = SMALL["learning_starts"]

@@ -488,6 +488,25 @@ def test_train_segments_buffers_and_returns():
     np.testing.assert_array_equal(run.states.episodes, np.arange(1, 7))
 
 
+def test_end_is_terminal_flags_the_time_limit_per_level():
+    """Truncated episodes: by default nothing is terminal; ``high.end_is_terminal`` flags the
+    last segment of every episode in D_H (the paper's arm rule), the low level keeps
+    bootstrapping unless it asks too."""
+    run = base_run()
+    assert not run.final.high.buffer.data["terminated"].any()
+    assert not run.final.low.buffer.data["terminated"].any()
+    cfg = dataclasses.replace(BASE, high=dataclasses.replace(BASE.high, end_is_terminal=True))
+    flagged = _run(make_hiddpg(cfg, Reach()), Reach(), EPISODES)
+    high = flagged.final.high.buffer
+    terminal = np.asarray(high.data["terminated"][: int(high.size)])
+    assert int(terminal.sum()) == EPISODES  # exactly one per episode: its last segment
+    assert not flagged.final.low.buffer.data["terminated"].any()
+    cfg = dataclasses.replace(cfg, low=dataclasses.replace(BASE.low, end_is_terminal=True))
+    low = _run(make_hiddpg(cfg, Reach()), Reach(), EPISODES).final.low.buffer
+    np.testing.assert_array_equal(np.asarray(low.data["terminated"][: EPISODES * HORIZON]),
+                                  np.tile([0] * (HORIZON - 1) + [1], EPISODES))
+
+
 def test_returns_subtract_the_switch_cost():
     run = base_run()
     m = run.metrics

@@ -259,3 +259,13 @@ class DDPGBlock:
         state, critic_metrics = self.critic_update(state, batch)
         state, actor_metrics = self.actor_update(state, batch["obs"], extra_dq_da)
         return self.soft_update(state), {**critic_metrics, **actor_metrics}
+
+
+def value_terminal(res: Any, end_is_terminal: bool) -> jax.Array:
+    """The ``terminated`` flag a stored transition gets from an environment step ``res``: the
+    environment's own, or also the time limit when ``end_is_terminal`` (no bootstrap at the
+    end of any episode; see ``DDPGConfig.end_is_terminal``)."""
+    terminated = jnp.asarray(res.terminated, bool)
+    if end_is_terminal:
+        terminated = terminated | jnp.asarray(res.truncated, bool)
+    return terminated

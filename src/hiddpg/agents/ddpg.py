@@ -31,7 +31,7 @@ from flax import struct
 
 from hiddpg.agents import buffer as replay
 from hiddpg.agents import noise
-from hiddpg.agents.block import BlockState, DDPGBlock
+from hiddpg.agents.block import BlockState, DDPGBlock, value_terminal
 from hiddpg.agents.gate import gated
 from hiddpg.configs import DDPGConfig
 from hiddpg.envs.base import Environment, affine_unit
@@ -152,7 +152,7 @@ class DDPGAgent:
             transition = {
                 "obs": carry.obs, "action": unit,
                 "reward": jnp.asarray(res.reward, jnp.float32), "next_obs": next_obs,
-                "terminated": jnp.asarray(res.terminated, bool),
+                "terminated": value_terminal(res, c.end_is_terminal),
             }
             alive = carry.alive
             buf = replay.add(agent.buffer, transition, alive)

@@ -39,7 +39,7 @@ from flax import struct
 
 from hiddpg.agents import buffer as replay
 from hiddpg.agents import noise
-from hiddpg.agents.block import BlockState, DDPGBlock
+from hiddpg.agents.block import BlockState, DDPGBlock, value_terminal
 from hiddpg.agents.gate import gated
 from hiddpg.agents.networks import FINAL_INIT_SCALE, MLP
 from hiddpg.agents.skills import SkillPatterns, skill_patterns
@@ -244,7 +244,8 @@ class HDDPG:
         terminated = jnp.asarray(res.terminated, bool)
         sums = dict(carry.sums, ret=carry.sums["ret"] + reward)
         if train:  # 3. store and learn
-            agent = self._store(agent, obs, skill, unit, reward, next_obs, terminated, alive)
+            agent = self._store(agent, obs, skill, unit, reward, next_obs,
+                                value_terminal(res, self.config.skill.end_is_terminal), alive)
             agent, sums = self._learn(agent, sums, keys[4], alive & ~random_phase)
         ended = terminated | jnp.asarray(res.truncated, bool)
         new = _Carry(

@@ -26,6 +26,7 @@ import jax.numpy as jnp
 from flax import struct
 
 from hiddpg.agents import noise
+from hiddpg.agents.block import value_terminal
 from hiddpg.agents.level import Level, LevelState
 from hiddpg.configs import HIDDPGConfig
 from hiddpg.envs.base import Environment, affine_unit
@@ -176,9 +177,10 @@ class HIDDPG:
         sums = dict(carry.sums)
         if train:  # 3. store and learn (Alg. 1 lines 11-12 and 14-20)
             low_tr = {"s": carry.obs, "c": goal, "a": action, "r": r_int, "s2": res.obs,
-                      "terminated": res.terminated}
+                      "terminated": value_terminal(res, c.low.end_is_terminal)}
             high_tr = {"s": seg_obs, "c": jnp.zeros((0,)), "a": high_action, "r": f,
-                       "s2": res.obs, "terminated": res.terminated}
+                       "s2": res.obs,
+                       "terminated": value_terminal(res, c.high.end_is_terminal)}
             agent = agent.replace(low=low.store(agent.low, low_tr, alive),
                                   high=high.store(agent.high, high_tr, seg_end & ~pretrain))
             started = agent.env_steps >= c.learning_starts
