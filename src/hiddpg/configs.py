@@ -145,6 +145,11 @@ class LevelConfig:
     ends bootstrap (spec §3 decision). The presets set it on tasks that terminate (obstacles):
     there, bootstrapping an infinite-horizon value at the time limit makes a collision look
     cheaper than going on (docs/algorithms.md)."""
+    env_terminal: bool = True
+    """An environment termination (a collision) ends the level's value: no bootstrap (spec §3).
+    False: bootstrap through it. The presets set False for the low level on terminating tasks:
+    its reward is intrinsic only, so a collision would end its costs without costing anything,
+    and it learned to drive into the obstacle whatever the goal (docs/algorithms.md)."""
 
     def __post_init__(self) -> None:
         _hidden(self)

@@ -507,6 +507,17 @@ def test_end_is_terminal_flags_the_time_limit_per_level():
                                   np.tile([0] * (HORIZON - 1) + [1], EPISODES))
 
 
+def test_low_level_can_bootstrap_through_a_termination():
+    """``low.env_terminal=False``: a collision does not end the low level's (intrinsic) value,
+    so it cannot escape its costs by terminating; the high level still sees the termination."""
+    cfg = dataclasses.replace(BASE, low=dataclasses.replace(BASE.low, env_terminal=False))
+    run = _run(make_hiddpg(cfg, Reach()), Reach(), EPISODES, terminate_at=9)
+    low, high = run.final.low.buffer, run.final.high.buffer
+    assert int(low.size) == 9 * EPISODES  # the episodes still end at the termination
+    assert not np.asarray(low.data["terminated"][: int(low.size)]).any()
+    assert int(np.asarray(high.data["terminated"][: int(high.size)]).sum()) == EPISODES
+
+
 def test_returns_subtract_the_switch_cost():
     run = base_run()
     m = run.metrics

@@ -261,11 +261,14 @@ class DDPGBlock:
         return self.soft_update(state), {**critic_metrics, **actor_metrics}
 
 
-def value_terminal(res: Any, end_is_terminal: bool) -> jax.Array:
+def value_terminal(res: Any, end_is_terminal: bool, env_terminal: bool = True) -> jax.Array:
     """The ``terminated`` flag a stored transition gets from an environment step ``res``: the
-    environment's own, or also the time limit when ``end_is_terminal`` (no bootstrap at the
-    end of any episode; see ``DDPGConfig.end_is_terminal``)."""
+    environment's own (unless ``env_terminal`` is False: then the value bootstraps through it),
+    or also the time limit when ``end_is_terminal`` (no bootstrap at the end of any episode;
+    see ``DDPGConfig.end_is_terminal``)."""
     terminated = jnp.asarray(res.terminated, bool)
+    if not env_terminal:
+        terminated = jnp.zeros_like(terminated)
     if end_is_terminal:
         terminated = terminated | jnp.asarray(res.truncated, bool)
     return terminated

@@ -177,10 +177,12 @@ class HIDDPG:
         sums = dict(carry.sums)
         if train:  # 3. store and learn (Alg. 1 lines 11-12 and 14-20)
             low_tr = {"s": carry.obs, "c": goal, "a": action, "r": r_int, "s2": res.obs,
-                      "terminated": value_terminal(res, c.low.end_is_terminal)}
+                      "terminated": value_terminal(res, c.low.end_is_terminal,
+                                                  c.low.env_terminal)}
             high_tr = {"s": seg_obs, "c": jnp.zeros((0,)), "a": high_action, "r": f,
                        "s2": res.obs,
-                       "terminated": value_terminal(res, c.high.end_is_terminal)}
+                       "terminated": value_terminal(res, c.high.end_is_terminal,
+                                                    c.high.env_terminal)}
             agent = agent.replace(low=low.store(agent.low, low_tr, alive),
                                   high=high.store(agent.high, high_tr, seg_end & ~pretrain))
             started = agent.env_steps >= c.learning_starts
