@@ -139,12 +139,9 @@ class LevelConfig:
     """Penalty weight on the squared unit action in the actor's objective (Andrychowicz et
     al. 2017) [decision; 0 = the paper's plain DPG]."""
     end_is_terminal: bool = False
-    """Treat the end of every episode as terminal in the value targets: no bootstrap at the time
-    limit either (the paper's arm rule, §III-B: "the target action-state value for the final
-    step in each episode was assigned with the reward of the final step"). False: time-limit
-    ends bootstrap (spec §3 decision). The presets set it on tasks that terminate (obstacles):
-    there, bootstrapping an infinite-horizon value at the time limit makes a collision look
-    cheaper than going on (docs/algorithms.md)."""
+    """No bootstrap at the end of any episode for this level's critic (as
+    :attr:`DDPGConfig.end_is_terminal`; the presets set it on the high level of the
+    terminating tasks)."""
     env_terminal: bool = True
     """An environment termination (a collision) ends the level's value: no bootstrap (spec §3).
     False: bootstrap through it. The presets set False for the low level on terminating tasks:
