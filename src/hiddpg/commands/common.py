@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import sys
+from collections.abc import Callable, Sequence
 
 
 class UsageError(ValueError):
@@ -14,3 +16,14 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> None:  # type: ignore[override]
         raise UsageError(message)
+
+
+def argv_or_help(argv: Sequence[str] | None,
+                 build_parser: Callable[[], argparse.ArgumentParser]) -> list[str] | None:
+    """The command line as a list (``sys.argv[1:]`` when ``argv`` is None), or None after
+    printing the command's help when it asks for it (``-h`` / ``--help``)."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    if {"-h", "--help"} & set(args):
+        build_parser().print_help()
+        return None
+    return args

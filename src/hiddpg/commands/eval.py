@@ -22,7 +22,7 @@ import jax
 import numpy as np
 
 from hiddpg.commands.common import Parser as _Parser
-from hiddpg.commands.common import UsageError
+from hiddpg.commands.common import UsageError, argv_or_help
 from hiddpg.runs import Run, make_trainer
 
 PROG = "hiddpg eval"
@@ -52,9 +52,8 @@ def eval_keys(key: int, seeds: Sequence[int]) -> jax.Array:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``hiddpg eval`` with ``argv``; returns the exit code (2 on a bad command line)."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if {"-h", "--help"} & set(argv):
-        build_parser().print_help()
+    argv = argv_or_help(argv, build_parser)
+    if argv is None:
         return 0
     try:
         args = build_parser().parse_args(argv)

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from hiddpg.commands.common import Parser as _Parser
-from hiddpg.commands.common import UsageError
+from hiddpg.commands.common import UsageError, argv_or_help
 
 PROG = "hiddpg plot"
 
@@ -54,9 +54,8 @@ def _labels(runs: list) -> dict:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``hiddpg plot`` with ``argv``; returns the exit code."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if {"-h", "--help"} & set(argv):
-        build_parser().print_help()
+    argv = argv_or_help(argv, build_parser)
+    if argv is None:
         return 0
     from hiddpg.experiments import comparison
     from hiddpg.experiments.report import save_figure

@@ -20,7 +20,7 @@ import time
 from collections.abc import Callable, Sequence
 
 from hiddpg.commands.common import Parser as _Parser
-from hiddpg.commands.common import UsageError
+from hiddpg.commands.common import UsageError, argv_or_help
 from hiddpg.experiments.common import SCALES, Context, budget_table
 from hiddpg.experiments.rundata import ExperimentError
 
@@ -60,9 +60,8 @@ def _runners() -> dict[str, Callable]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``hiddpg reproduce`` with ``argv``; returns the exit code."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if {"-h", "--help"} & set(argv):
-        build_parser().print_help()
+    argv = argv_or_help(argv, build_parser)
+    if argv is None:
         return 0
     try:
         args = build_parser().parse_args(argv)

@@ -34,6 +34,7 @@ import numpy as np
 from hiddpg import sweep
 from hiddpg.commands import train as train_cmd
 from hiddpg.commands.common import Parser as _Parser
+from hiddpg.commands.common import argv_or_help
 from hiddpg.devices import DEVICES_ENV, cpu_cores
 from hiddpg.runs import PROGRESS_FILE, Run
 
@@ -107,9 +108,8 @@ def _grid_values(raw: str) -> list:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if {"-h", "--help"} & set(argv):
-        build_parser().print_help()
+    argv = argv_or_help(argv, build_parser)
+    if argv is None:
         return 0
     try:
         args = build_parser().parse_args(argv)

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from hiddpg.commands.common import Parser as _Parser
-from hiddpg.commands.common import UsageError
+from hiddpg.commands.common import UsageError, argv_or_help
 from hiddpg.configs import ALGORITHMS
 from hiddpg.runs import Run, default_name, find_non_finite, make_trainer
 
@@ -112,9 +112,8 @@ def main(argv: Sequence[str] | None = None,
          on_chunk: Callable[[Run, int], None] | None = None) -> int:
     """Run ``hiddpg train`` with ``argv``; returns the exit code. ``on_chunk(run, episodes)``
     is called after each chunk's checkpoint is written (tests use it to simulate a crash)."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if {"-h", "--help"} & set(argv):
-        build_parser().print_help()
+    argv = argv_or_help(argv, build_parser)
+    if argv is None:
         return 0
     try:
         args = build_parser().parse_args(argv)
