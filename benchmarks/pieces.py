@@ -7,26 +7,20 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
 
+from hiddpg.configs import TrainConfig
 from hiddpg.train import Trainer
 
 
-def ours_config(algo: str, episodes: int, repeats: int):
-    from throughput import ours_config as config  # the benchmark's (paper preset, no warm-up)
-
-    return config(algo, episodes, repeats)
-
-
-HORIZON = 30  # PuckTrajectory2's episode length (checked in throughput.py)
-
-
-# -- where the time goes -------------------------------------------------------------------------
-def pieces(n: int = 300, episodes: int = 10) -> list[tuple[str, float, float]]:
+def pieces(ours_config: Callable[[str, int, int], TrainConfig], n: int = 300,
+           episodes: int = 10) -> list[tuple[str, float, float]]:
     """Milliseconds per env step of the parts of one seed's training step, each a jitted
-    ``lax.scan`` without ``vmap`` (best of 3): ``(label, wall ms, cpu ms)``."""
+    ``lax.scan`` without ``vmap`` (best of 3): ``(label, wall ms, cpu ms)``. ``ours_config``
+    is the benchmark's ``(algo, episodes, repeats) -> config``."""
     from hiddpg.agents import buffer as replay
 
     key = jax.random.PRNGKey(0)
@@ -60,10 +54,10 @@ def pieces(n: int = 300, episodes: int = 10) -> list[tuple[str, float, float]]:
         trainer = Trainer(ours_config(algo, episodes, 1))
         agent, state = trainer.agent, trainer.agent.init(key, trainer.env_params)
         single = jax.tree.map(lambda x: x[None], state)
-        per_ep = episodes * HORIZON
-        clock(f"{algo}: train_episode, vmap over 1 seed (as Trainer)",
+        per_ep = episodes * trainer.env.max_steps(trainer.env_params)
+        clock(f"{algo}: train_episode, vmap over 1 seed (unnamed axis)",
               episodes_of(trainer, True), single, per_ep)
-        clock(f"{algo}: train_episode, no vmap (lax.cond branches)",
+        clock(f"{algo}: train_episode, no vmap (as Trainer: lax.cond branches)",
               episodes_of(trainer, False), state, per_ep)
         idle = Trainer(dataclasses.replace(trainer.config, agent=dataclasses.replace(
             trainer.config.agent, learning_starts=10**9)))

@@ -401,7 +401,7 @@ def main() -> None:
         print("where the time goes (one seed, ms per env step):")
         from pieces import pieces
 
-        pieces()
+        pieces(ours_config)
 
     text = markdown(rows, base, skip, args, (load_start, load()), xla, big)
     print("\n" + text)

@@ -74,13 +74,22 @@ SCRIPT = textwrap.dedent("""
 """)
 
 
-def run_script(tmp_path, devices: int, mode: str):
-    path = tmp_path / f"{devices}-{mode}.npz"
-    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
-    subprocess.run([sys.executable, "-c", SCRIPT, str(devices), mode, str(path)], check=True,
-                   env=env, timeout=600)
-    z = np.load(path)
-    return {k: z[k] for k in z.files}
+@pytest.fixture(scope="module")
+def run_script(tmp_path_factory):
+    """``(devices, mode) -> the script's arrays``, each combination run once per module."""
+    done = {}
+
+    def run(devices: int, mode: str):
+        if (devices, mode) not in done:
+            path = tmp_path_factory.mktemp("devices") / f"{devices}-{mode}.npz"
+            env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+            subprocess.run([sys.executable, "-c", SCRIPT, str(devices), mode, str(path)],
+                           check=True, env=env, timeout=600)
+            with np.load(path) as z:
+                done[devices, mode] = {k: z[k] for k in z.files}
+        return done[devices, mode]
+
+    return run
 
 
 def state_keys(out, n_seeds):
@@ -88,10 +97,10 @@ def state_keys(out, n_seeds):
 
 
 @pytest.mark.slow
-def test_seeds_on_cpu_devices_are_bitwise_independent_of_the_split(tmp_path):
+def test_seeds_on_cpu_devices_are_bitwise_independent_of_the_split(run_script):
     """CPU default (seeds one after another per device): 3 seeds on 1 or 2 devices and seed 1
     alone compute exactly the same numbers."""
-    one, two = run_script(tmp_path, 1, "map"), run_script(tmp_path, 2, "map")
+    one, two = run_script(1, "map"), run_script(2, "map")
     assert int(one["3_devices"]) == 1 and int(two["3_devices"]) == 2  # 3 seeds (+1 pad) sharded
     keys = state_keys(one, 3)
     assert len(keys) > 100  # the whole run state and every metric
@@ -102,10 +111,10 @@ def test_seeds_on_cpu_devices_are_bitwise_independent_of_the_split(tmp_path):
 
 
 @pytest.mark.slow
-def test_vmapped_seeds_on_devices_match_within_rounding(tmp_path):
+def test_vmapped_seeds_on_devices_match_within_rounding(run_script):
     """Accelerator mode (a vmap per device) forced on CPU: batched matmuls of 2 seeds per
     device round differently from unbatched ones in the last bit only."""
-    ref, vm = run_script(tmp_path, 1, "map"), run_script(tmp_path, 2, "vmap")
+    ref, vm = run_script(1, "map"), run_script(2, "vmap")
     assert int(vm["3_devices"]) == 2
     for k in state_keys(ref, 3):
         np.testing.assert_allclose(vm[k], ref[k], rtol=1e-5, atol=1e-5, err_msg=k)
@@ -121,3 +130,16 @@ def test_seeds_on_device_choice(monkeypatch):
     monkeypatch.setenv(SEEDS_ENV, "pmap")
     with pytest.raises(ValueError, match="HIDDPG_SEEDS_ON_DEVICE='pmap'.*'vmap' or 'map'"):
         batch_seeds()
+
+
+@pytest.mark.parametrize("var,value,needle", [
+    (DEVICES_ENV, "two", "HIDDPG_CPU_DEVICES='two': expected a positive integer"),
+    (SEEDS_ENV, "pmap", "HIDDPG_SEEDS_ON_DEVICE='pmap': expected 'vmap' or 'map'"),
+])
+def test_the_command_names_a_bad_device_setting(var, value, needle):
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    env[var] = value
+    out = subprocess.run([sys.executable, "-m", "hiddpg.cli", "envs", "list"], env=env,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2
+    assert out.stderr.strip() == f"hiddpg: error: {needle}"

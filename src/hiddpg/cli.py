@@ -50,9 +50,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``hiddpg`` script; returns the exit code (0 on success, 2 on usage
     errors). Called with ``argv=None`` it reads ``sys.argv[1:]`` and exits the process."""
     if argv is None:
-        from hiddpg.devices import request_cpu_devices
+        from hiddpg.devices import request_cpu_devices, seeds_on_device
 
-        request_cpu_devices()  # one CPU device per core, before JAX starts (hiddpg.devices)
+        try:  # one CPU device per core, before JAX starts (hiddpg.devices)
+            request_cpu_devices()
+            seeds_on_device()
+        except ValueError as err:
+            print(f"hiddpg: error: {err}", file=sys.stderr)
+            sys.exit(2)
         sys.exit(main(sys.argv[1:]))
     args = list(argv)
     if not args or args[0] in ("-h", "--help", "help"):

@@ -1,8 +1,8 @@
 """Seeds spread over devices: one CPU device per core, or the accelerators there are.
 
-XLA's CPU backend is one device that runs each matrix multiply on all cores. The updates of
-our agents are small (batch 64, 300-300 networks), so a multiply does not keep two cores busy,
-and many vmapped seeds are no faster in total than one. Asking XLA for one CPU device per core
+XLA's CPU backend is one device that splits each matrix multiply over all cores. The updates
+of our agents are small (batch 64, 300-300 networks), so the split gains little, and many
+vmapped seeds are no faster in total than one. Asking XLA for one CPU device per core
 (``--xla_force_host_platform_device_count``) and giving each device its share of the seeds
 fills the cores: :class:`hiddpg.train.Trainer` shards the seed axis over :func:`seed_mesh`
 with ``shard_map`` (seeds padded to a multiple of the devices; the padding is dropped), and a
@@ -87,12 +87,18 @@ def batch_seeds() -> bool:
     """
     import jax
 
-    choice = os.environ.get(SEEDS_ENV)
+    choice = seeds_on_device()
     if choice is not None:
-        if choice not in ("vmap", "map"):
-            raise ValueError(f"{SEEDS_ENV}={choice!r}: expected 'vmap' or 'map'")
         return choice == "vmap"
     return jax.default_backend() != "cpu"
+
+
+def seeds_on_device() -> str | None:
+    """``$HIDDPG_SEEDS_ON_DEVICE`` checked (``"vmap"``, ``"map"`` or unset: ``None``)."""
+    choice = os.environ.get(SEEDS_ENV)
+    if choice is not None and choice not in ("vmap", "map"):
+        raise ValueError(f"{SEEDS_ENV}={choice!r}: expected 'vmap' or 'map'")
+    return choice
 
 
 def padding(n_seeds: int, n_devices: int) -> int:

@@ -7,10 +7,10 @@ one chunk and many, take the same code path:
 
 * a chunk is ``chunk_episodes`` episodes: an outer ``lax.scan`` over evaluation blocks of
   ``eval_every`` training episodes followed by one noise-free evaluation episode;
-* seeds are a leading axis on the run state: ``jax.vmap`` over :meth:`Trainer.init` keys,
-  with the axis name :data:`~hiddpg.agents.gate.SEED_AXIS` so that skipped updates stay real
-  branches (:func:`hiddpg.agents.gate.gated`), spread over the devices (one CPU device per core
-  under the ``hiddpg`` command, see :mod:`hiddpg.devices`).
+* seeds are a leading axis on the run state (:meth:`Trainer.init_seeds`), sharded over the
+  devices (one CPU device per core under the ``hiddpg`` command) and, on each device, run one
+  after another (CPU) or as a ``vmap`` named :data:`~hiddpg.agents.gate.SEED_AXIS` so that
+  skipped updates stay real branches (accelerators); see :mod:`hiddpg.devices`.
 
 The engine knows nothing about an agent's inside (see :mod:`hiddpg.agents.base`).
 """

@@ -38,13 +38,6 @@ def seed_axis_bound() -> bool:
     return True
 
 
-def any_seed(pred: jax.Array) -> jax.Array:
-    """``pred`` reduced with *or* over the seeds of the enclosing named vmap (if any)."""
-    if not seed_axis_bound():
-        return pred
-    return lax.psum(jnp.asarray(pred, jnp.int32), SEED_AXIS) > 0
-
-
 def gated(pred: jax.Array, update: Callable[[Any], T], skip: Callable[[Any], T],
           operand: Any) -> T:
     """``update(operand)`` where ``pred`` holds, ``skip(operand)`` elsewhere.
