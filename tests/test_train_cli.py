@@ -243,3 +243,33 @@ def test_eval_replays_the_final_policy(reference, tmp_path, capsys):
     assert eval_cmd.main([str(reference), "--seed", "7"]) == 2
     assert "--seed 7 is not in the run" in capsys.readouterr().err
     assert eval_cmd.main([str(tmp_path)]) == 2
+
+
+def test_sigterm_marks_the_run_interrupted_and_it_resumes(tmp_path):
+    """``kill`` (SIGTERM) of a real ``hiddpg train`` process: exit 130, the run says
+    ``interrupted`` at its last checkpoint and how to resume, and resuming finishes it."""
+    import subprocess
+    import sys
+    import time
+
+    run_dir = tmp_path / "killed"
+    argv = [sys.executable, "-m", "hiddpg.cli", "train", "ddpg", TASK, "--seeds", "0", *QUICK,
+            "--set", "episodes=100000", "--out", str(tmp_path), "--name", "killed"]
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 240
+    while time.monotonic() < deadline and proc.poll() is None:
+        progress = run_dir / runs.PROGRESS_FILE
+        if progress.is_file() and json.loads(progress.read_text())["episodes"] >= 10:
+            break
+        time.sleep(0.2)
+    proc.terminate()
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert f"hiddpg train --resume {run_dir}" in err
+    progress = runs.Run.open(run_dir).progress()
+    assert progress["status"] == "interrupted" and progress["episodes"] >= 10
+    assert progress["episodes"] % 10 == 0  # a chunk boundary: the last checkpoint
+    done = progress["episodes"]
+    assert train_cmd.main(["--resume", str(run_dir), "--episodes", str(done + 10)]) == 0
+    final = runs.Run.open(run_dir).progress()
+    assert final["status"] == "finished" and final["episodes"] == done + 10

@@ -181,6 +181,10 @@ class HIDDPGConfig:
     """Train the dynamics models (False for HI-DDPG-wo-model)."""
     pretrain_episodes: int = 0
     """Episodes of low-level pre-training with random goals: arm 1000, puck 0 [paper]."""
+    pretrain_fills_high_buffer: bool = False
+    """Store the pre-training phase's segments (random goals and durations) in ``D_H``, so that
+    the high level starts from a broad sample of goal sequences instead of only its own
+    [decision; False = D_H starts empty after pre-training]."""
     learning_starts: int = 1000
     """Environment steps with random goals and random actions before learning [decision]."""
     high_learning_starts: int = 64

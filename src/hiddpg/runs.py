@@ -5,7 +5,8 @@ A run lives in ``runs/<name>/`` (name default ``<algo>-<task>-<timestamp>``)::
     config.json         the TrainConfig (configs.to_dict), the seeds, hiddpg/jax versions
     metrics.csv         one row per seed per training episode (see METRIC_COLUMNS)
     checkpoint.msgpack  the whole vmapped RunState (flax msgpack), rewritten after every chunk
-    progress.json       episodes done, wall time, status: running / finished / failed
+    progress.json       episodes done, wall time, status: running / finished / failed /
+                        interrupted (Ctrl-C or SIGTERM; resumable like a failed run)
     tb/seed_<s>/        TensorBoard event files (only if tensorboardX is installed)
 
 Checkpoint and progress are written atomically (temporary file in the same directory, fsync,

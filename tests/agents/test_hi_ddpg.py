@@ -659,3 +659,18 @@ def test_vmap_over_seeds_equals_single_runs():
                 x[i], y, rtol=1e-6, atol=1e-6 * max(1.0, np.max(np.abs(y), initial=0.0))),
             states, single.states)
     assert not np.array_equal(metrics["return"][0], metrics["return"][1])
+
+
+def test_pretraining_can_fill_the_high_buffer():
+    """``pretrain_fills_high_buffer``: the pre-training segments (random goals and durations)
+    go into D_H with their true rewards and end states, while the high level still learns
+    nothing until pre-training ends."""
+    config = dataclasses.replace(PUCK, pretrain_fills_high_buffer=True)
+    agent = make_agent("hi-ddpg-wo-model", config, PuckTrajectory1())
+    run = _run(agent, PuckTrajectory1(), 3)
+    for e in (1, 2):
+        assert _equal(_params(run.state(e).high), _params(run.init.high))
+        ep = check_episode(run, e, 30, PuckState)  # D_H holds exactly this episode's segments
+        assert len(ep.starts) >= 2
+    assert not _equal(_params(run.state(3).high), _params(run.init.high))
+    assert int(run.state(2).high.buffer.size) > 0

@@ -13,7 +13,9 @@ high-level update is gated by the segment end. One episode is a ``lax.scan`` ove
 Phases (spec §2): the first ``learning_starts`` environment steps use uniformly random goals,
 durations and actions; during the first ``pretrain_episodes`` episodes the high level is
 bypassed (uniformly random goals and durations) and only the low level learns; ``D_H`` stores
-no segments then, because their returns were earned by a low level that has since changed.
+their segments only with ``pretrain_fills_high_buffer`` (their returns were earned by a low
+level that has since changed, but they cover the goal space far more broadly than the high
+level's own first goals).
 """
 
 from __future__ import annotations
@@ -183,8 +185,9 @@ class HIDDPG:
                        "s2": res.obs,
                        "terminated": value_terminal(res, c.high.end_is_terminal,
                                                     c.high.env_terminal)}
+            store_high = ~pretrain | c.pretrain_fills_high_buffer
             agent = agent.replace(low=low.store(agent.low, low_tr, alive),
-                                  high=high.store(agent.high, high_tr, seg_end & ~pretrain))
+                                  high=high.store(agent.high, high_tr, seg_end & store_high))
             started = agent.env_steps >= c.learning_starts
             learn_low = alive & started
             high_tick = seg_end if c.high_update_on == "segment" else alive

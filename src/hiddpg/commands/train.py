@@ -125,10 +125,12 @@ def main(argv: Sequence[str] | None = None,
     try:
         state, done, wall = _start(run, trainer, resumed=isinstance(target, Run))
         return _train(run, trainer, state, done, wall, on_chunk)
-    except BaseException as err:  # keep the last checkpoint's progress, mark the run failed
+    except BaseException as err:  # keep the last checkpoint's progress, mark the run
         last = run.progress()
-        run.write_progress(last["episodes"], last["wall_time"], "failed", error=repr(err))
-        if isinstance(err, KeyboardInterrupt):
+        stopped = isinstance(err, KeyboardInterrupt)  # Ctrl-C or SIGTERM (hiddpg.cli)
+        run.write_progress(last["episodes"], last["wall_time"],
+                           "interrupted" if stopped else "failed", error=repr(err))
+        if stopped:
             print(f"{PROG}: interrupted; continue with: hiddpg train --resume {run.path}",
                   file=sys.stderr)
             return 130
