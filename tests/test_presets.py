@@ -1,0 +1,44 @@
+"""The presets' per-task decisions (docs/algorithms.md, "Decisions that make learning work")."""
+
+from __future__ import annotations
+
+import pytest
+
+from hiddpg.envs import make
+from hiddpg.presets import STABILIZE, make_config
+
+PUCK = ("PuckTrajectory1", "PuckTrajectory2", "PuckTrajectory3", "PuckObstacle")
+ARM = ("ArmReach", "ArmObstacle")
+
+
+def action_penalties(algo: str, task: str, preset: str) -> list[float]:
+    agent = make_config(algo, task, preset).agent
+    return {"ddpg": lambda: [agent.action_l2], "h-ddpg": lambda: [agent.skill.action_l2],
+            "hi-ddpg": lambda: [agent.low.action_l2, agent.high.action_l2]}[algo]()
+
+
+@pytest.mark.parametrize("preset", ["paper", "quick"])
+@pytest.mark.parametrize("algo", ["ddpg", "h-ddpg", "hi-ddpg"])
+def test_the_action_penalty_is_for_forces_only(algo, preset):
+    """Puck: the penalty on the unit action pulls forces to 0. Arm: unit 0 is activation 0.5
+    (co-contraction), so the arm presets have no penalty."""
+    for task in PUCK:
+        assert action_penalties(algo, task, preset)[0] == STABILIZE["action_l2"] == 1.0
+    for task in ARM:
+        assert action_penalties(algo, task, preset)[0] == 0.0
+    env, _ = make("ArmObstacle")
+    assert (float(env.action_low), float(env.action_high)) == (0.0, 1.0)
+
+
+@pytest.mark.parametrize("preset", ["paper", "quick"])
+@pytest.mark.parametrize("task", PUCK + ARM)
+def test_hi_ddpg_presets(task, preset):
+    for algo in ("hi-ddpg", "hi-ddpg-wo-model"):
+        agent = make_config(algo, task, preset).agent
+        assert agent.pretrain_fills_high_buffer and agent.high_update_on == "step"
+        terminating = task in ("PuckObstacle", "ArmObstacle")
+        assert agent.high.end_is_terminal == terminating
+        assert agent.low.env_terminal == (not terminating)
+        assert agent.pretrain_episodes == {("paper", True): 1000, ("paper", False): 0,
+                                           ("quick", True): 200, ("quick", False): 300}[
+            (preset, task.startswith("Arm"))]
