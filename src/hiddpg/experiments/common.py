@@ -52,7 +52,7 @@ class Budget:
 #: (scale, task family) -> budget. ``quick`` is the quick preset's own budget (the smallest
 #: that learns PuckTrajectory1: 1500 episodes with 300 of low-level pre-training; arm 1500
 #: with 200: at 600 HI-DDPG's high level was still exploring, -32.7 +- 2.8, at 1500 -11.5 +- 2.0)
-#: on 3 seeds, about 25 minutes for ``all`` on 2 cores; ``paper`` is the paper's 15 runs
+#: on 3 seeds, about 20 minutes for ``all`` on 2 cores; ``paper`` is the paper's 15 runs
 #: per method with the paper preset's episodes (hours; resumable).
 BUDGETS: dict[tuple[str, str], Budget] = {
     ("quick", "puck"): Budget("quick", seeds=3, episodes=1500, eval_every=50,
