@@ -52,17 +52,22 @@ class Budget:
 #: (scale, task family) -> budget. ``quick`` is the quick preset's own budget (the smallest
 #: that learns PuckTrajectory1: 1500 episodes with 300 of low-level pre-training; arm 1500
 #: with 200: at 600 HI-DDPG's high level was still exploring, -32.7 +- 2.8, at 1500 -11.5 +- 2.0)
-#: on 3 seeds, about 20 minutes for ``all`` on 2 cores; ``paper`` is the paper's 15 runs
-#: per method with the paper preset's episodes (hours; resumable).
+#: on 3 seeds, about 20 minutes for ``all`` on 2 cores. ``paper`` is the paper's budget, 15 runs
+#: per method of 3000 episodes, trained with the *quick* preset's networks and rates
+#: [decision]: with the paper preset's (300-300 networks, high-level rate 2e-5, no puck
+#: pre-training) HI-DDPG's evaluation return on PuckTrajectory2 stayed flat at about -53 from
+#: episode 400 to 1600 (15 seeds, 3058 s for 1600 episodes), where the quick preset reaches -24
+#: to -34 by 1500 in a tenth of the time; ArmObstacle with quick networks at this budget:
+#: -9.8 +- 1.7 in 637 s (docs/results.md). ``hiddpg train --preset paper`` keeps the paper's.
 BUDGETS: dict[tuple[str, str], Budget] = {
     ("quick", "puck"): Budget("quick", seeds=3, episodes=1500, eval_every=50,
                               chunk_episodes=250),
     ("quick", "arm"): Budget("quick", seeds=3, episodes=1500, eval_every=50,
                              chunk_episodes=250),
-    ("paper", "puck"): Budget("paper", seeds=15, episodes=3000, eval_every=20,
-                              chunk_episodes=200),
-    ("paper", "arm"): Budget("paper", seeds=15, episodes=3000, eval_every=20,
-                             chunk_episodes=100, pretrain_episodes=1000),
+    ("paper", "puck"): Budget("quick", seeds=15, episodes=3000, eval_every=20,
+                              chunk_episodes=250),
+    ("paper", "arm"): Budget("quick", seeds=15, episodes=3000, eval_every=20,
+                             chunk_episodes=250),
 }
 
 
