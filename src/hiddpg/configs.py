@@ -58,6 +58,11 @@ class NoiseConfig:
     """OU mean reversion α [paper]."""
     sigma: float = 0.1
     """Noise scale: 0.1 on the puck, 0.15 on the arm [paper]."""
+    final_sigma: float = -1.0
+    """Noise scale reached after ``decay_episodes`` episodes, linearly from ``sigma``; negative
+    keeps ``sigma`` throughout [paper: constant]."""
+    decay_episodes: int = 1
+    """Episodes over which the scale goes from ``sigma`` to ``final_sigma``."""
 
     def __post_init__(self) -> None:
         if self.kind not in ("ou", "gaussian"):
@@ -65,6 +70,12 @@ class NoiseConfig:
         _unit(self, "theta")
         if not self.sigma >= 0:
             raise ValueError(f"NoiseConfig.sigma={self.sigma!r} must be >= 0")
+        if self.decay_episodes < 1:
+            raise ValueError(f"NoiseConfig.decay_episodes={self.decay_episodes!r} must be >= 1")
+
+    @property
+    def decays(self) -> bool:
+        return self.final_sigma >= 0
 
 
 @dataclass(frozen=True)

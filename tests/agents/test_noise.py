@@ -5,6 +5,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from hiddpg.agents import noise
 from hiddpg.configs import NoiseConfig
@@ -71,3 +72,24 @@ def test_same_key_same_noise():
     a = _run(OU, steps=10, processes=3, seed=5)
     b = _run(OU, steps=10, processes=3, seed=5)
     np.testing.assert_array_equal(a, b)
+
+
+def test_decaying_scale_is_linear_then_flat():
+    cfg = NoiseConfig(kind="gaussian", sigma=0.3, final_sigma=0.1, decay_episodes=100)
+    got = [float(noise.scale(cfg, e)) for e in (0, 50, 100, 400)]
+    np.testing.assert_allclose(got, [0.3, 0.2, 0.1, 0.1], rtol=1e-6)
+    assert noise.scale(NoiseConfig(sigma=0.3), 1000) == 0.3  # no decay unless asked
+
+
+def test_decayed_noise_has_the_episodes_std():
+    cfg = NoiseConfig(kind="gaussian", sigma=0.4, final_sigma=0.0, decay_episodes=4)
+    keys = jax.random.split(jax.random.PRNGKey(1), 20000)
+    draw = jax.vmap(lambda k, e: noise.sample(cfg, noise.init(cfg, 1), k, e)[1][0],
+                    in_axes=(0, None))
+    np.testing.assert_allclose(np.std(draw(keys, 1)), 0.3, rtol=0.03)
+    assert np.all(np.asarray(draw(keys, 7)) == 0.0)
+
+
+def test_bad_decay_is_named():
+    with pytest.raises(ValueError, match="decay_episodes=0"):
+        NoiseConfig(final_sigma=0.1, decay_episodes=0)

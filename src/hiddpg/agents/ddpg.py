@@ -143,7 +143,7 @@ class DDPGAgent:
             agent = carry.agent
             random_action = jax.random.uniform(
                 k_random, (self.env.action_dim,), jnp.float32, -1.0, 1.0)
-            noise_state, eps = noise.sample(c.noise, carry.noise, k_noise)
+            noise_state, eps = noise.sample(c.noise, carry.noise, k_noise, agent.episodes)
             explore = jnp.clip(block.act(agent.block, carry.obs) + eps, -1.0, 1.0)
             learning = agent.env_steps >= c.learning_starts
             unit = jnp.where(learning, explore, random_action)

@@ -233,7 +233,7 @@ class HDDPG:
         unit = self.skill_units(agent.skills, obs)[skill]
         noise_state = carry.noise
         if train:
-            noise_state, n = noise.sample(c.skill.noise, carry.noise, keys[1])
+            noise_state, n = noise.sample(c.skill.noise, carry.noise, keys[1], agent.episodes)
             uniform = jax.random.uniform(keys[2], unit.shape, jnp.float32, -1.0, 1.0)
             unit = jnp.where(random_phase, uniform, jnp.clip(unit + n, -1.0, 1.0))
         action = self.patterns.env_action(skill, unit, obs, env_params)

@@ -146,7 +146,7 @@ class HIDDPG:
         high_noise, low_noise = carry.high_noise, carry.low_noise
         random_phase = pretrain = jnp.array(False)
         if train:
-            new_noise, eps = noise.sample(c.high.noise, high_noise, keys[0])
+            new_noise, eps = noise.sample(c.high.noise, high_noise, keys[0], agent.episodes)
             high_noise = jax.tree.map(lambda a, b: jnp.where(switch, a, b), new_noise, high_noise)
             random_phase = agent.env_steps < c.learning_starts
             pretrain = agent.episodes < c.pretrain_episodes
@@ -164,7 +164,7 @@ class HIDDPG:
         # 2. the low level acts on [s, g] (Alg. 1 lines 9-10)
         action = low.act(agent.low, carry.obs, goal)
         if train:
-            low_noise, eps = noise.sample(c.low.noise, low_noise, keys[2])
+            low_noise, eps = noise.sample(c.low.noise, low_noise, keys[2], agent.episodes)
             uniform = jax.random.uniform(keys[3], action.shape, minval=-1.0, maxval=1.0)
             action = jnp.where(random_phase, uniform, jnp.clip(action + eps, -1.0, 1.0))
         res = env.step(keys[4], carry.env_state, self.env_action(action), env_params)

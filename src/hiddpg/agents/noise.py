@@ -35,12 +35,23 @@ def init(config: NoiseConfig, action_dim: int) -> NoiseState:
     return NoiseState(x=jnp.zeros((action_dim,), jnp.float32))
 
 
-def sample(config: NoiseConfig, state: NoiseState, key: jax.Array) -> tuple[NoiseState, jax.Array]:
-    """Advance the process one step and return ``(new_state, noise)``."""
+def scale(config: NoiseConfig, episode: jax.Array | int = 0) -> jax.Array | float:
+    """The noise scale σ at ``episode``: ``sigma``, or linear to ``final_sigma`` if it decays."""
+    if not config.decays:
+        return config.sigma
+    frac = jnp.minimum(jnp.asarray(episode, jnp.float32) / config.decay_episodes, 1.0)
+    return config.sigma + (config.final_sigma - config.sigma) * frac
+
+
+def sample(config: NoiseConfig, state: NoiseState, key: jax.Array,
+           episode: jax.Array | int = 0) -> tuple[NoiseState, jax.Array]:
+    """Advance the process one step and return ``(new_state, noise)`` (``episode`` sets σ when
+    the config decays it)."""
     eps = jax.random.normal(key, state.x.shape, state.x.dtype)
+    sigma = scale(config, episode)
     if config.kind == "gaussian":
-        return state, config.sigma * eps
-    x = state.x + config.theta * (0.0 - state.x) + config.sigma * eps
+        return state, sigma * eps
+    x = state.x + config.theta * (0.0 - state.x) + sigma * eps
     return NoiseState(x=x), x
 
 
