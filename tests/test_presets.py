@@ -45,3 +45,19 @@ def test_hi_ddpg_presets(task, preset):
         assert agent.pretrain_episodes == {("paper", True): 1000, ("paper", False): 0,
                                            ("quick", True): 200, ("quick", False): 300}[
             (preset, task.startswith("Arm"))]
+
+
+@pytest.mark.parametrize("preset", ["paper", "quick"])
+@pytest.mark.parametrize("task", PUCK + ARM)
+def test_high_level_noise_decays_on_the_arm_obstacle_task_only(task, preset):
+    for algo in ("hi-ddpg", "hi-ddpg-wo-model"):
+        cfg = make_config(algo, task, preset, ["episodes=1234"])
+        high, low = cfg.agent.high.noise, cfg.agent.low.noise
+        assert not low.decays
+        if task == "ArmObstacle":  # sigma -> 0 over exactly this run's episodes
+            assert (high.sigma, high.final_sigma, high.decay_episodes) == (0.15, 0.0, 1234)
+        else:
+            assert not high.decays
+    explicit = make_config("hi-ddpg", "ArmObstacle", preset,
+                           ["episodes=1234", "agent.high.noise.decay_episodes=100"])
+    assert explicit.agent.high.noise.decay_episodes == 100

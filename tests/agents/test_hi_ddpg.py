@@ -674,3 +674,21 @@ def test_pretraining_can_fill_the_high_buffer():
         assert len(ep.starts) >= 2
     assert not _equal(_params(run.state(3).high), _params(run.init.high))
     assert int(run.state(2).high.buffer.size) > 0
+
+
+def test_high_level_noise_follows_its_schedule():
+    """A high-level noise decaying from 0.5 to 0 over 2 episodes: the first goal of episode 1
+    is off the actor's, from episode 3 on it is the actor's own (the schedule reaches the
+    agent through its episode count)."""
+    decaying = NoiseConfig(sigma=0.5, final_sigma=0.0, decay_episodes=2)
+    config = dataclasses.replace(
+        BASE, learning_starts=0,
+        high=dataclasses.replace(BASE.high, noise=decaying))
+    agent = make_hiddpg(config, Reach())
+    run = _run(agent, Reach(), 4)
+    act = jax.jit(lambda st, s: agent.decode(agent.high.act(st, s, jnp.zeros((0,))))[0])
+    for e, noisy in ((1, True), (3, False), (4, False)):
+        ep = check_episode(run, e, HORIZON)
+        own = np.asarray(act(run.state(e - 1).high, ep.s[0]))
+        gap = np.abs(ep.goal[0] - own)[[0, 2]].max()
+        assert (gap > 1e-3) if noisy else (gap < 1e-5), (e, gap)
