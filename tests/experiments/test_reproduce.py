@@ -205,3 +205,12 @@ def test_hidden_override_reaches_every_hidden_field():
         "agent.high.hidden=[8]", "agent.low.hidden=[8]", "episodes=5"]
     assert expand_sets(make_config("ddpg", "PuckTrajectory1", "quick"),
                        ["agent.hidden=[8]"]) == ["agent.hidden=[8]"]
+
+
+def test_history_opacity_rises_to_one_and_never_past_it():
+    from hiddpg.experiments.trajectory import history_alpha
+
+    for n in range(1, 60):  # paper scale: 12 snapshots gave 1.0000000000000002 before
+        alphas = [history_alpha(k, n) for k in range(n)]
+        assert all(0.1 < a <= 1.0 for a in alphas) and alphas[-1] > 1.0 - 1e-12
+        assert alphas == sorted(alphas)

@@ -32,6 +32,12 @@ SMOOTH_POINTS = 100
 """Fig. 3's curves are moving averages over ``episodes // SMOOTH_POINTS`` episodes."""
 
 
+def history_alpha(k: int, n: int) -> float:
+    """Opacity of snapshot ``k`` of ``n`` (rising from 0.1 to 1; never above 1, which
+    matplotlib rejects: 0.1 + 0.9 * 12 / 12 is 1.0000000000000002)."""
+    return min(1.0, 0.1 + 0.9 * (k + 1) / n)
+
+
 def moving_average(values: np.ndarray, window: int) -> np.ndarray:
     """Trailing moving average along the last axis ('valid' part: ``n - window + 1`` points)."""
     if window <= 1:
@@ -151,7 +157,7 @@ def fig4(ctx: Context) -> dict:
         final = snaps[-1]
         i = median_seed(final)
         for k, snap in enumerate(snaps):
-            alpha = 0.1 + 0.9 * (k + 1) / len(snaps)
+            alpha = history_alpha(k, len(snaps))
             pos = positions(snap.traj, i)
             left.plot(pos[:, 0], pos[:, 1], color="tab:red", alpha=alpha, lw=1.5 if
                       k == len(snaps) - 1 else 0.8)
