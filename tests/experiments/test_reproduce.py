@@ -46,8 +46,8 @@ def test_fig4_writes_figures_and_a_report_whose_numbers_parse(reproduced):
     _valid_figure(reproduced / "figures" / "fig4")
     text = (reproduced / "report.md").read_text()
     assert "## Fig. 4" in text and "![fig4](figures/fig4.png)" in text
-    rows = [r for r in report.table_rows(text) if r[0] == "PuckTrajectory2"]
-    assert len(rows) == 2  # one row per reference goal
+    task_rows = [r for r in report.table_rows(text) if r[0] == "PuckTrajectory2"]
+    rows, (bar,) = task_rows[:2], task_rows[2:]  # one row per reference goal, then the bar
     numbers = json.loads((reproduced / "sections" / "fig4.json").read_text())["numbers"]
     mine = numbers["PuckTrajectory2"]
     for g, row in enumerate(rows):
@@ -60,6 +60,9 @@ def test_fig4_writes_figures_and_a_report_whose_numbers_parse(reproduced):
                                         rel=1e-2)
         assert switches[0] == pytest.approx(np.mean(mine["switches"]), rel=1e-2)
         assert ref_switches == [1.0] and ret[0] < 0
+    counts = mine["bar"]
+    assert bar[1:] == [f"{counts[k]} / 2" for k in ("goals", "switches", "both")]
+    assert counts["switches"] == sum(s == 1 for s in mine["switches"])
     times = {r[0]: report.parse_numbers(r[1]) for r in report.table_rows(text)
              if "training" in r[0] or "fig4" in r[0]}
     assert all(v and v[0] > 0 for v in times.values())
@@ -214,3 +217,11 @@ def test_history_opacity_rises_to_one_and_never_past_it():
         alphas = [history_alpha(k, n) for k in range(n)]
         assert all(0.1 < a <= 1.0 for a in alphas) and alphas[-1] > 1.0 - 1e-12
         assert alphas == sorted(alphas)
+
+
+def test_bar_counts_runs_with_every_goal_near_and_the_reference_switches():
+    from hiddpg.experiments.trajectory import bar_counts
+
+    near = np.array([[0.1, 0.2], [0.1, 0.35], [0.29, 0.0], [0.5, 0.5]])
+    got = bar_counts(near, np.array([1.0, 1.0, 2.0, 1.0]), reference_switches=1)
+    assert got == {"runs": 4, "goals": 2, "switches": 3, "both": 1}
