@@ -70,6 +70,9 @@ class NoiseConfig:
         _unit(self, "theta")
         if not self.sigma >= 0:
             raise ValueError(f"NoiseConfig.sigma={self.sigma!r} must be >= 0")
+        if not math.isfinite(self.final_sigma):
+            raise ValueError(f"NoiseConfig.final_sigma={self.final_sigma!r} must be a number: "
+                             ">= 0 to decay to it, negative for a constant sigma")
         if self.decay_episodes < 1:
             raise ValueError(f"NoiseConfig.decay_episodes={self.decay_episodes!r} must be >= 1")
 

@@ -93,3 +93,5 @@ def test_decayed_noise_has_the_episodes_std():
 def test_bad_decay_is_named():
     with pytest.raises(ValueError, match="decay_episodes=0"):
         NoiseConfig(final_sigma=0.1, decay_episodes=0)
+    with pytest.raises(ValueError, match="final_sigma=nan"):
+        NoiseConfig(final_sigma=float("nan"))

@@ -10,7 +10,10 @@ Two kinds, chosen by :class:`~hiddpg.configs.NoiseConfig` (a static Python objec
 API (pure, ``jit``/``vmap``-safe)::
 
     ns = noise.init(cfg, action_dim)          # at the start of every episode
-    ns, eps = noise.sample(cfg, ns, key)      # every step; action = clip(μ(s) + eps, -1, 1)
+    ns, eps = noise.sample(cfg, ns, key, episode)  # every step; action = clip(μ(s) + eps, -1, 1)
+
+``NoiseConfig.final_sigma`` / ``decay_episodes`` make σ fall linearly with the agent's episode
+count (:func:`scale`); by default σ is constant.
 """
 
 from __future__ import annotations

@@ -38,15 +38,13 @@ EVAL_KEY = 0
 
 @dataclass(frozen=True)
 class Budget:
-    """The training budget of one run; ``None`` keeps the preset's value."""
+    """The training budget of one run (everything else is the preset's)."""
 
     preset: str
     seeds: int
     episodes: int
     eval_every: int
     chunk_episodes: int
-    pretrain_episodes: int | None = None
-    """HI-DDPG's low-level pre-training (random goals) at the start of ``episodes``."""
 
 
 #: (scale, task family) -> budget. ``quick`` is the quick preset's own budget (the smallest
@@ -73,12 +71,11 @@ BUDGETS: dict[tuple[str, str], Budget] = {
 
 def budget_table() -> str:
     """The budgets as a markdown table (README, report)."""
-    rows = ["| scale | tasks | preset | seeds | episodes | eval every | chunk | pre-training |",
-            "|---|---|---|---:|---:|---:|---:|---:|"]
+    rows = ["| scale | tasks | preset | seeds | episodes | eval every | chunk |",
+            "|---|---|---|---:|---:|---:|---:|"]
     for (scale, family), b in BUDGETS.items():
-        pre = "preset's" if b.pretrain_episodes is None else str(b.pretrain_episodes)
         rows.append(f"| {scale} | {family} | {b.preset} | {b.seeds} | {b.episodes} | "
-                    f"{b.eval_every} | {b.chunk_episodes} | {pre} |")
+                    f"{b.eval_every} | {b.chunk_episodes} |")
     return "\n".join(rows)
 
 
@@ -131,12 +128,7 @@ class Context:
         episodes = self.episodes or b.episodes
         sets = [f"episodes={episodes}", f"eval_every={min(b.eval_every, episodes)}",
                 f"chunk_episodes={b.chunk_episodes}"]
-        base = make_config(algo, task, b.preset, sets)
-        if b.pretrain_episodes is not None and hasattr(base.agent, "pretrain_episodes"):
-            # the same fraction of the run when --episodes changes the budget
-            pretrain = round(b.pretrain_episodes * episodes / b.episodes)
-            sets.append(f"agent.pretrain_episodes={pretrain}")
-        return sets + expand_sets(base, self.sets)
+        return sets + expand_sets(make_config(algo, task, b.preset, sets), self.sets)
 
     def config(self, algo: str, task: str) -> TrainConfig:
         from hiddpg.presets import make_config
