@@ -194,11 +194,11 @@ class HIDDPGConfig:
     spec's form]. With :attr:`intrinsic_action_cost` it is the stage cost of an LQR problem."""
     intrinsic_action_cost: float = 0.0
     """``w``: the low-level reward also subtracts ``w |a|^2`` of the action given to the
-    environment (its normalised box) [decision; 0 = the spec's form]. The puck presets set
-    ``intrinsic_squared`` and ``w = 3 / 0.95`` (the reference controller's ``0.03 |F|^2`` with
-    ``F = 10 a``, over ``γ_L = 0.95`` for the reward's one-step delay): the cost whose optimal
-    controller is the puck's reference controller, so that the reference goals are the best
-    goals for the learned low level (docs/algorithms.md)."""
+    environment (its normalised box) [decision; 0 = the spec's form]. On the puck,
+    ``intrinsic_squared`` with ``w = 3 / 0.95`` (the reference's ``0.03 |F|^2``, ``F = 10 a``,
+    over ``γ_L = 0.95`` for the reward's one-step delay) makes the puck's reference controller
+    the optimal low-level controller (tested), so the reference goals become the best goals.
+    Not in the presets: DDPG's low level did not learn that controller (docs/results.md)."""
     model_weight: float = 1.0
     """λ_model, weight of the model-based gradient (eqs. 6-7) [decision]."""
     use_model: bool = True
@@ -209,13 +209,6 @@ class HIDDPGConfig:
     """Store the pre-training phase's segments (random goals and durations) in ``D_H``, so that
     the high level starts from a broad sample of goal sequences instead of only its own
     [decision; False = D_H starts empty after pre-training]."""
-    high_subsegments: bool = False
-    """Also store in ``D_H``, at every step ``t`` inside a segment, a random stretch ``j..t`` of
-    it as the same goal chosen at ``s_j`` for ``T = t - j + 1`` steps (with the switch cost of a
-    goal chosen there): the low level does not see ``T`` or ``t_i``, so these are true samples
-    of other switch times and durations (intra-option learning, Sutton, Precup & Singh 1999),
-    and every visited state becomes a start state of ``D_H`` [decision; False = one transition
-    per segment, as Alg. 1]."""
     learning_starts: int = 1000
     """Environment steps with random goals and random actions before learning [decision]."""
     high_learning_starts: int = 64

@@ -694,59 +694,6 @@ def test_high_level_noise_follows_its_schedule():
         assert (gap > 1e-3) if noisy else (gap < 1e-5), (e, gap)
 
 
-def test_subsegments_store_a_stretch_of_the_segment_at_every_step():
-    """``high_subsegments``: at step ``t`` inside a segment that started at ``t_i`` D_H gets
-    (s_j, the same goal, T = t - j + 1) for some ``j`` in ``t_i..t`` with ``T >= T_min``, the
-    environment reward of steps ``j..t`` minus the switch cost (unless ``j`` is the episode's
-    first switch point) and the state reached; at a segment's end the segment itself. Checked
-    against D_L, which records what happened, in the random phase and where the actor chooses."""
-    config = dataclasses.replace(BASE, high_subsegments=True, duration_min=2.0)
-    agent = make_hiddpg(config, Reach())
-    run = _run(agent, Reach(), 4)
-    step = _env_step(Reach(), ReachState)
-    lo, hi = np.asarray(Reach.goal_space.low), np.asarray(Reach.goal_space.high)
-    inner, late = 0, 0
-    for e in (1, 3, 4):
-        before, after = run.state(e - 1), run.state(e)
-        l0, h0, h1 = (int(before.low.buffer.size), int(before.high.buffer.size),
-                      int(after.high.buffer.size))
-        low = {k: np.asarray(v[l0:l0 + HORIZON]) for k, v in run.final.low.buffer.data.items()}
-        high = {k: np.asarray(v[h0:h1]) for k, v in run.final.high.buffer.data.items()}
-        actions = np.asarray(agent.env_action(jnp.asarray(low["a"])))
-        _, r_env, _ = map(np.asarray, step(run.params, low["s"],
-                                           np.arange(HORIZON, dtype=np.int32), actions))
-        g = low["c"]
-        starts = list(np.flatnonzero(np.concatenate(
-            [[True], np.any(g[1:] != g[:-1], axis=-1)])))
-        i = 0
-        for seg, k0 in enumerate(starts):
-            stop = starts[seg + 1] if seg + 1 < len(starts) else HORIZON
-            for t in range(k0, stop):
-                end = t == stop - 1
-                if not end and t - k0 + 1 < config.duration_min:
-                    continue  # no stretch ending here is long enough
-                a = high["a"][i]
-                T = _unit_to(config.duration_min, config.duration_max, a[-1])
-                if end:  # the segment itself: its duration cut to the steps left
-                    j = k0
-                    assert min(round(float(T)), HORIZON - k0) == t - k0 + 1
-                else:
-                    j = t + 1 - round(float(T))
-                    np.testing.assert_allclose(T, t - j + 1, atol=1e-5)
-                    assert k0 <= j <= t and T >= config.duration_min
-                    inner += 1
-                    late += j > k0
-                np.testing.assert_array_equal(high["s"][i], low["s"][j])
-                np.testing.assert_array_equal(high["s2"][i], low["s2"][t])
-                np.testing.assert_allclose(_unit_to(lo, hi, a[:-1]), g[k0][[0, 2]],
-                                           rtol=1e-6, atol=1e-6)
-                f = r_env[j:t + 1].sum() - COST * (seg > 0 or j > k0)
-                np.testing.assert_allclose(high["r"][i], f, rtol=1e-5, atol=1e-5)
-                i += 1
-        assert i == h1 - h0, "D_H holds exactly these transitions"
-    assert inner >= 6 and 0 < late < inner  # both the segment's start and later ones
-
-
 def test_quadratic_intrinsic_reward_with_an_action_cost():
     """``intrinsic_squared`` and ``intrinsic_action_cost = w``: every D_L reward is
     ``-(|P (s' - g)|^2 + w |a|^2)`` with ``a`` the action given to the environment."""
@@ -759,3 +706,25 @@ def test_quadratic_intrinsic_reward_with_an_action_cost():
     err = low["s2"][:, [0, 2]] - low["c"][:, [0, 2]]
     expected = -(np.sum(err**2, axis=-1) + w * np.sum(env_a**2, axis=-1))
     np.testing.assert_allclose(low["r"], expected, rtol=1e-5, atol=1e-6)
+
+
+def test_the_puck_reference_controller_is_optimal_for_the_quadratic_intrinsic_reward():
+    """With ``intrinsic_squared`` and ``w = 3 / 0.95`` (normalised actions, ``F = 10 a``) the
+    best low-level controller under ``γ_L = 0.95`` is the puck's reference controller: the
+    discounted Riccati recursion for ``-(|p' - g|^2 + w |a|^2)`` (a cost on the *next* state)
+    converges to the spec's gain ``K`` (in force units, ``/ 10``)."""
+    from hiddpg.envs.puckworld import discrete_matrices, lqr_gain
+
+    params = PuckTrajectory1().default_params()
+    A, B = (np.asarray(m, np.float64) for m in discrete_matrices(params))
+    B = B * float(params.force_max)  # normalised action
+    Q, gamma, w = np.diag([1.0, 1.0, 0.0, 0.0]), 0.95, 3.0 / 0.95
+    P = np.zeros((4, 4))
+    for _ in range(3000):
+        M = Q + gamma * P  # cost-to-go of the next state, its own cost included
+        K = np.linalg.solve(B.T @ M @ B + w * np.eye(2), B.T @ M @ A)
+        P = (A - B @ K).T @ M @ (A - B @ K) + w * K.T @ K
+    np.testing.assert_allclose(K * float(params.force_max), np.asarray(lqr_gain(params)),
+                               rtol=1e-5)
+    K_spec = np.asarray(lqr_gain(params))
+    np.testing.assert_allclose(K_spec[0], [4.255, 0.0, 2.509, 0.0], atol=1e-3)

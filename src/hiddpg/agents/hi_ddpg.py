@@ -21,7 +21,6 @@ level's own first goals).
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Any
 
 import jax
@@ -55,9 +54,6 @@ class _Carry:
     remaining: jax.Array  # low-level steps left in the segment
     seg_obs: jax.Array  # s_{t_i}
     seg_reward: jax.Array  # Σ r_env so far in the segment
-    seg_start: jax.Array  # t_i
-    past_obs: jax.Array  # s_t of this episode's steps so far (sub-segment transitions only)
-    past_return: jax.Array  # Σ r_env before step t, for t = 0..horizon (sub-segments only)
     n_goals: jax.Array
     high_noise: noise.NoiseState
     low_noise: noise.NoiseState
@@ -115,29 +111,6 @@ class HIDDPG:
             return -distance
         return -(distance + c.intrinsic_action_cost * jnp.sum(jnp.square(env_action)))
 
-    def _subsegment(self, key, segment, seg_end, alive, t, seg_start, n_goals, past_obs,
-                    past_return):
-        """This step's ``D_H`` transition with :attr:`HIDDPGConfig.high_subsegments`: at a
-        segment's end the segment; at another step ``t`` the steps ``j..t`` of the segment
-        (``j`` uniform over the starts giving ``T = t - j + 1 >= T_min``) as the same goal
-        chosen at ``s_j`` for ``T`` steps, with the switch cost of a goal chosen there
-        (``j > 0``). The low level sees only ``[s, g]``, so these are true samples of that choice
-        (intra-option learning)."""
-        c = self.config
-        k_min = max(math.ceil(c.duration_min), 1)
-        valid = t - seg_start + 2 - k_min  # number of starts j with T >= k_min
-        j = seg_start + jnp.floor(jax.random.uniform(key) * valid).astype(jnp.int32)
-        j = jnp.clip(j, seg_start, t)
-        steps = (t - j + 1).astype(jnp.float32)
-        span = c.duration_max - c.duration_min
-        t_unit = (2.0 * (steps - c.duration_min) / span - 1.0) if span > 0 else jnp.ones(())
-        goal_entries = segment["a"][: self.goal_dim]
-        cost = c.switch_cost * ((j > seg_start) | (n_goals > 1))
-        inner = dict(segment, s=past_obs[j], a=jnp.append(goal_entries, t_unit),
-                     r=past_return[t + 1] - past_return[j] - cost)
-        tr = jax.tree.map(lambda a, b: jnp.where(seg_end, a, b), segment, inner)
-        return tr, alive & (seg_end | (valid > 0))
-
     # -- protocol ---------------------------------------------------------------------------
     def init(self, key: jax.Array, env_params: Any) -> HIDDPGState:
         del env_params
@@ -162,9 +135,6 @@ class HIDDPG:
             env_state=env_state, obs=obs, alive=jnp.array(True),
             high_action=jnp.zeros((self.goal_dim + 1,)), goal=jnp.zeros_like(obs),
             remaining=jnp.zeros((), jnp.int32), seg_obs=obs, seg_reward=jnp.zeros(()),
-            seg_start=jnp.zeros((), jnp.int32),
-            past_obs=jnp.zeros((horizon if self.config.high_subsegments else 0, obs.shape[-1])),
-            past_return=jnp.zeros((horizon + 1 if self.config.high_subsegments else 0,)),
             n_goals=jnp.zeros((), jnp.int32),
             high_noise=noise.init(self.config.high.noise, self.goal_dim + 1),
             low_noise=noise.init(self.config.low.noise, env.action_dim),
@@ -200,8 +170,6 @@ class HIDDPG:
         remaining = jnp.where(switch, n, carry.remaining)
         seg_obs = jnp.where(switch, carry.obs, carry.seg_obs)
         seg_reward = jnp.where(switch, 0.0, carry.seg_reward)
-        t = carry.env_state.t
-        seg_start = jnp.where(switch, t, carry.seg_start)
         n_goals = carry.n_goals + switch.astype(jnp.int32)
         # 2. the low level acts on [s, g] (Alg. 1 lines 9-10)
         action = low.act(agent.low, carry.obs, goal)
@@ -228,16 +196,9 @@ class HIDDPG:
                        "s2": res.obs,
                        "terminated": value_terminal(res, c.high.end_is_terminal,
                                                     c.high.env_terminal)}
-            high_mask = seg_end
-            if c.high_subsegments:
-                past_obs = carry.past_obs.at[t].set(carry.obs)
-                past_return = carry.past_return.at[t + 1].set(carry.past_return[t] + r_env)
-                high_tr, high_mask = self._subsegment(
-                    jax.random.fold_in(keys[1], 1), high_tr, seg_end, alive, t, seg_start,
-                    n_goals, past_obs, past_return)
             store_high = ~pretrain | c.pretrain_fills_high_buffer
             agent = agent.replace(low=low.store(agent.low, low_tr, alive),
-                                  high=high.store(agent.high, high_tr, high_mask & store_high))
+                                  high=high.store(agent.high, high_tr, seg_end & store_high))
             started = agent.env_steps >= c.learning_starts
             learn_low = alive & started
             high_tick = seg_end if c.high_update_on == "segment" else alive
@@ -259,10 +220,8 @@ class HIDDPG:
         new = _Carry(
             env_state=env_state, obs=jnp.where(alive, res.obs, carry.obs), alive=alive & ~done,
             high_action=high_action, goal=goal, remaining=remaining, seg_obs=seg_obs,
-            seg_reward=seg_reward, seg_start=seg_start, n_goals=n_goals, high_noise=high_noise,
+            seg_reward=seg_reward, n_goals=n_goals, high_noise=high_noise,
             low_noise=low_noise, agent=agent, sums=sums,
-            past_obs=past_obs if train and c.high_subsegments else carry.past_obs,
-            past_return=past_return if train and c.high_subsegments else carry.past_return,
         )
         traj = {"obs": carry.obs, "next_obs": res.obs, "action": env_action,
                 "reward": r_env, "alive": alive, "goal": env.goal_space.select(goal),
