@@ -1,0 +1,56 @@
+"""The critic-vs-truth probe of a run's first segment (hiddpg.experiments.probes)."""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+
+from hiddpg.commands.eval import eval_keys
+from hiddpg.experiments.probes import first_segment
+from hiddpg.presets import make_config
+from hiddpg.runs import make_trainer
+from hiddpg.train import seed_keys
+
+SEEDS = [0, 3]
+
+
+@functools.cache
+def _setup():
+    config = make_config("hi-ddpg", "PuckTrajectory1", "quick", ["agent.learning_starts=0"])
+    trainer = make_trainer(config)
+    state = trainer.init_seeds(seed_keys(SEEDS))
+    return trainer, state
+
+
+def test_the_actors_own_first_segment_is_the_evaluation_episode():
+    """With the actor's own first action the probe's truth is exactly the evaluation's return;
+    a duration covering the episode uses one goal and pays no switch cost; a one-step first
+    segment pays it for every later goal."""
+    trainer, state = _setup()
+    keys = eval_keys(0, SEEDS)
+    metrics, _ = trainer.evaluate_seeds(state, keys)
+    out = first_segment(trainer, state, keys, [1.0, 30.0])
+    np.testing.assert_allclose(out["policy"]["return"], np.asarray(metrics["return"]),
+                               rtol=1e-6, atol=1e-5)
+    assert out["return"].shape == out["q"].shape == (2, 2)
+    np.testing.assert_array_equal(out["goals"][:, 1], 1)
+    np.testing.assert_allclose(out["return"][:, 1], out["env_return"][:, 1], rtol=1e-6)
+    assert np.all(out["goals"][:, 0] >= 2)
+    cost = trainer.agent.config.switch_cost
+    np.testing.assert_allclose(out["return"][:, 0],
+                               out["env_return"][:, 0] - cost * (out["goals"][:, 0] - 1),
+                               rtol=1e-5, atol=1e-4)
+
+
+def test_a_given_goal_replaces_the_actors_and_bad_durations_are_refused():
+    trainer, state = _setup()
+    keys = eval_keys(0, SEEDS)
+    own = first_segment(trainer, state, keys, [30.0])
+    ref = first_segment(trainer, state, keys, [30.0], goal=[1.5, 0.35])
+    # one goal held all episode: the end state differs with the goal, so does the return
+    assert not np.allclose(own["env_return"], ref["env_return"])
+    np.testing.assert_allclose(ref["policy"]["return"], own["policy"]["return"])
+    with pytest.raises(ValueError, match=r"durations \[0.5\].*\[1.0, 30.0\]"):
+        first_segment(trainer, state, keys, [0.5])
