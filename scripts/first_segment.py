@@ -29,12 +29,19 @@ def main() -> None:
     parser.add_argument("--durations", default="1,5,10,14,18,22,26,29,30")
     parser.add_argument("--goal", default=None, help="goal entries, comma-separated")
     args = parser.parse_args()
+    try:
+        durations = [float(x) for x in args.durations.split(",")]
+        goal = None if args.goal is None else [float(x) for x in args.goal.split(",")]
+    except ValueError:
+        parser.error(f"--durations {args.durations!r} and --goal {args.goal!r} must be "
+                     "comma-separated numbers")
     run = Run.open(args.run)
     trainer = make_trainer(run.config)
     state, done = run.load_checkpoint(trainer)
-    durations = [float(x) for x in args.durations.split(",")]
-    goal = None if args.goal is None else [float(x) for x in args.goal.split(",")]
-    out = first_segment(trainer, state, eval_keys(0, run.seeds), durations, goal)
+    try:
+        out = first_segment(trainer, state, eval_keys(0, run.seeds), durations, goal)
+    except ValueError as err:
+        parser.error(str(err))
     print(f"{args.run}: {done} episodes; Q = critic, f = truth (goals used)")
     for i, seed in enumerate(run.seeds):
         pol = {k: v[i] for k, v in out["policy"].items()}

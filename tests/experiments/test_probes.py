@@ -49,6 +49,8 @@ def test_a_given_goal_replaces_the_actors_and_bad_durations_are_refused():
     keys = eval_keys(0, SEEDS)
     own = first_segment(trainer, state, keys, [30.0])
     ref = first_segment(trainer, state, keys, [30.0], goal=[1.5, 0.35])
+    np.testing.assert_allclose(ref["first_goal"][:, 0], [[1.5, 0.35]] * len(SEEDS), atol=1e-5)
+    np.testing.assert_allclose(own["first_goal"][:, 0], own["policy"]["goal"], atol=1e-6)
     # one goal held all episode: the end state differs with the goal, so does the return
     assert not np.allclose(own["env_return"], ref["env_return"])
     np.testing.assert_allclose(ref["policy"]["return"], own["policy"]["return"])

@@ -93,6 +93,11 @@ class HIDDPG:
         duration = affine_unit(t_unit, c.duration_min, c.duration_max)
         return goal, duration
 
+    def duration_unit(self, duration: jax.Array) -> jax.Array:
+        """Inverse of :meth:`decode`'s duration map: ``T`` → the unit action entry."""
+        c = self.config
+        return 2.0 * (duration - c.duration_min) / (c.duration_max - c.duration_min) - 1.0
+
     def env_action(self, unit: jax.Array) -> jax.Array:
         return affine_unit(unit, self.env.action_low, self.env.action_high)
 
@@ -126,7 +131,8 @@ class HIDDPG:
             low=self.low.set_learning_rate(state.low, c.low.lr * factor),
         )
 
-    def _episode(self, key: jax.Array, state: HIDDPGState, env_params: Any, train: bool):
+    def _episode(self, key: jax.Array, state: HIDDPGState, env_params: Any, train: bool,
+                 first: jax.Array | None = None):
         env, horizon = self.env, self.env.max_steps(env_params)
         k_reset, k_steps = jax.random.split(key)
         obs, env_state = env.reset(k_reset, env_params)
@@ -142,11 +148,12 @@ class HIDDPG:
             sums=dict(zeros, high_updates=jnp.zeros(()), low_updates=jnp.zeros(()),
                       env_return=jnp.zeros(()), ret=jnp.zeros(()), length=jnp.zeros(())),
         )
-        step = lambda c, k: self._step(c, k, env_params, horizon, train)  # noqa: E731
+        step = lambda c, k: self._step(c, k, env_params, horizon, train, first)  # noqa: E731
         carry, traj = jax.lax.scan(step, carry, jax.random.split(k_steps, horizon))
         return carry, traj
 
-    def _step(self, carry: _Carry, key: jax.Array, env_params: Any, horizon: int, train: bool):
+    def _step(self, carry: _Carry, key: jax.Array, env_params: Any, horizon: int, train: bool,
+              first: jax.Array | None = None):
         c, env, high, low = self.config, self.env, self.high, self.low
         keys = jax.random.split(key, 7)
         agent = carry.agent
@@ -163,6 +170,8 @@ class HIDDPG:
             uniform = jax.random.uniform(keys[1], high_action.shape, minval=-1.0, maxval=1.0)
             high_action = jnp.where(random_phase | pretrain, uniform,
                                     jnp.clip(high_action + eps, -1.0, 1.0))
+        if first is not None:  # a given first high-level action (evaluate's probe)
+            high_action = jnp.where(carry.n_goals == 0, first, high_action)
         high_action = jnp.where(switch, high_action, carry.high_action)
         goal, duration = self.decode(high_action)
         steps_left = horizon - carry.env_state.t
@@ -245,8 +254,11 @@ class HIDDPG:
         agent = carry.agent.replace(episodes=carry.agent.episodes + 1)
         return agent, self._metrics(carry)
 
-    def evaluate(self, key: jax.Array, state: HIDDPGState, env_params: Any):
-        carry, traj = self._episode(key, state, env_params, train=False)
+    def evaluate(self, key: jax.Array, state: HIDDPGState, env_params: Any,
+                 first: jax.Array | None = None):
+        """A noise-free episode; ``first`` (a unit high-level action), if given, replaces the
+        high level's first choice (:mod:`hiddpg.experiments.probes`)."""
+        carry, traj = self._episode(key, state, env_params, train=False, first=first)
         metrics = {k: v for k, v in self._metrics(carry).items() if "loss" not in k}
         return metrics, traj
 
