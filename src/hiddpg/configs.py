@@ -199,6 +199,25 @@ class HIDDPGConfig:
     over ``γ_L = 0.95`` for the reward's one-step delay) makes the puck's reference controller
     the optimal low-level controller (tested), so the reference goals become the best goals.
     Not in the presets: DDPG's low level did not learn that controller (docs/results.md)."""
+    low_controller: Literal["learned", "reference"] = "learned"
+    """``"reference"``: the low level is not learned; the environment's own goal-reaching
+    controller acts instead (the puck's LQR reference controller, spec §1.1) — a diagnostic
+    that separates what the high level learns from what the low level does [decision;
+    "learned" = the paper's method]. Environments without a ``reference_controller`` refuse it."""
+    high_time_input: bool = False
+    """The high level also sees the fraction of the episode left, ``steps_left / horizon``
+    (its MDP is then Markov on the time-indexed tasks, where the reward depends on the step)
+    [decision; False = the paper's state-only high level]. Pair it with
+    ``high.end_is_terminal`` on tasks that end by a time limit."""
+    hold_choice: bool = False
+    """At a switch the high critic compares the actor's ``(g, T)`` with ``(g, hold to the
+    end)`` and takes the better: a non-local step in ``T`` that the policy gradient cannot
+    make, since the return jumps by the switch cost only where ``T`` reaches the end
+    (docs/results.md) [decision; False = the paper's actor-only choice]. Needs
+    ``high_time_input`` to be meaningful past the first segment."""
+    hold_explore: float = 0.0
+    """Probability that a training switch holds its goal to the end, so that ``D_H`` holds
+    such segments from every switch state [decision; 0 = none]."""
     model_weight: float = 1.0
     """λ_model, weight of the model-based gradient (eqs. 6-7) [decision]."""
     use_model: bool = True
@@ -222,6 +241,9 @@ class HIDDPGConfig:
     anyway, so ``"step"`` gives ~T times more high-level updates for the same compute]."""
 
     def __post_init__(self) -> None:
+        if self.low_controller not in ("learned", "reference"):
+            raise ValueError(f"HIDDPGConfig.low_controller={self.low_controller!r} must be "
+                             "'learned' or 'reference'")
         if self.high_update_on not in ("segment", "step"):
             raise ValueError(f"HIDDPGConfig.high_update_on={self.high_update_on!r} must be "
                              "'segment' or 'step'")
@@ -244,6 +266,9 @@ class HIDDPGConfig:
         if not (self.intrinsic_action_cost >= 0 and math.isfinite(self.intrinsic_action_cost)):
             raise ValueError(f"HIDDPGConfig.intrinsic_action_cost={self.intrinsic_action_cost} "
                              "must be a finite number >= 0")
+        if not 0.0 <= self.hold_explore <= 1.0:
+            raise ValueError(f"HIDDPGConfig.hold_explore={self.hold_explore} must be a "
+                             "probability in [0, 1]")
         if not math.isfinite(self.switch_cost):
             raise ValueError(f"HIDDPGConfig.switch_cost={self.switch_cost} must be finite")
         _unit(self, "lr_decay")

@@ -75,8 +75,8 @@ class HIDDPG:
     @property
     def high(self) -> Level:
         c = self.config
-        return Level(c.high, self.env.obs_dim, 0, self.goal_dim + 1, 1.0,
-                     c.model_weight, c.use_model)
+        return Level(c.high, self.env.obs_dim + int(c.high_time_input), 0, self.goal_dim + 1,
+                     1.0, c.model_weight, c.use_model)
 
     @property
     def low(self) -> Level:
@@ -97,6 +97,30 @@ class HIDDPG:
         """Inverse of :meth:`decode`'s duration map: ``T`` → the unit action entry."""
         c = self.config
         return 2.0 * (duration - c.duration_min) / (c.duration_max - c.duration_min) - 1.0
+
+    def high_obs(self, obs: jax.Array, steps_left: jax.Array, horizon: int) -> jax.Array:
+        """The high level's input: ``obs``, and with ``high_time_input`` the fraction of the
+        episode left, ``steps_left / horizon`` (1 at the start, 0 at the end)."""
+        if not self.config.high_time_input:
+            return obs
+        return jnp.concatenate([obs, (steps_left / horizon)[None].astype(obs.dtype)])
+
+    def _hold(self, agent: HIDDPGState, hobs: jax.Array, action: jax.Array,
+              steps_left: jax.Array, key: jax.Array, train: bool, free: jax.Array) -> jax.Array:
+        """``action`` or, where chosen, its goal held to the episode's end (``T`` = the steps
+        left, at most ``T_max``): with ``hold_choice`` when the critic values that higher,
+        with ``hold_explore`` (training) at random; only where ``free`` (not a random phase)."""
+        c = self.config
+        hold_t = jnp.minimum(steps_left, c.duration_max).astype(jnp.float32)
+        hold = action.at[self.goal_dim].set(self.duration_unit(hold_t))
+        use = jnp.array(False)
+        if c.hold_choice:
+            critic = agent.high.block.critic
+            q = lambda a: self.high.block.q(critic, hobs, a)  # noqa: E731
+            use = q(hold) > q(action)
+        if train and c.hold_explore > 0:
+            use = use | (jax.random.uniform(jax.random.fold_in(key, 7)) < c.hold_explore)
+        return jnp.where(use & free, hold, action)
 
     def env_action(self, unit: jax.Array) -> jax.Array:
         return affine_unit(unit, self.env.action_low, self.env.action_high)
@@ -140,7 +164,8 @@ class HIDDPG:
         carry = _Carry(
             env_state=env_state, obs=obs, alive=jnp.array(True),
             high_action=jnp.zeros((self.goal_dim + 1,)), goal=jnp.zeros_like(obs),
-            remaining=jnp.zeros((), jnp.int32), seg_obs=obs, seg_reward=jnp.zeros(()),
+            remaining=jnp.zeros((), jnp.int32),
+            seg_obs=self.high_obs(obs, jnp.asarray(horizon), horizon), seg_reward=jnp.zeros(()),
             n_goals=jnp.zeros((), jnp.int32),
             high_noise=noise.init(self.config.high.noise, self.goal_dim + 1),
             low_noise=noise.init(self.config.low.noise, env.action_dim),
@@ -159,7 +184,9 @@ class HIDDPG:
         agent = carry.agent
         # 1. switch: the high level picks a new goal and duration (Alg. 1 line 7)
         switch = carry.alive & (carry.remaining <= 0)
-        high_action = high.act(agent.high, carry.obs, jnp.zeros((0,)))
+        steps_left = horizon - carry.env_state.t
+        hobs = self.high_obs(carry.obs, steps_left, horizon)
+        high_action = high.act(agent.high, hobs, jnp.zeros((0,)))
         high_noise, low_noise = carry.high_noise, carry.low_noise
         random_phase = pretrain = jnp.array(False)
         if train:
@@ -170,19 +197,25 @@ class HIDDPG:
             uniform = jax.random.uniform(keys[1], high_action.shape, minval=-1.0, maxval=1.0)
             high_action = jnp.where(random_phase | pretrain, uniform,
                                     jnp.clip(high_action + eps, -1.0, 1.0))
+        if c.hold_choice or (train and c.hold_explore > 0):
+            high_action = self._hold(agent, hobs, high_action, steps_left, keys[1], train,
+                                     ~(random_phase | pretrain))
         if first is not None:  # a given first high-level action (evaluate's probe)
             high_action = jnp.where(carry.n_goals == 0, first, high_action)
         high_action = jnp.where(switch, high_action, carry.high_action)
         goal, duration = self.decode(high_action)
-        steps_left = horizon - carry.env_state.t
         n = jnp.clip(jnp.round(duration), 1, steps_left).astype(jnp.int32)
         remaining = jnp.where(switch, n, carry.remaining)
-        seg_obs = jnp.where(switch, carry.obs, carry.seg_obs)
+        seg_obs = jnp.where(switch, hobs, carry.seg_obs)
         seg_reward = jnp.where(switch, 0.0, carry.seg_reward)
         n_goals = carry.n_goals + switch.astype(jnp.int32)
         # 2. the low level acts on [s, g] (Alg. 1 lines 9-10)
-        action = low.act(agent.low, carry.obs, goal)
-        if train:
+        learned_low = c.low_controller == "learned"
+        if learned_low:
+            action = low.act(agent.low, carry.obs, goal)
+        else:  # the environment's own controller (a diagnostic: the low level is not learned)
+            action = env.reference_controller(carry.obs, goal, env_params)
+        if train and learned_low:
             low_noise, eps = noise.sample(c.low.noise, low_noise, keys[2], agent.episodes)
             uniform = jax.random.uniform(keys[3], action.shape, minval=-1.0, maxval=1.0)
             action = jnp.where(random_phase, uniform, jnp.clip(action + eps, -1.0, 1.0))
@@ -202,14 +235,14 @@ class HIDDPG:
                       "terminated": value_terminal(res, c.low.end_is_terminal,
                                                   c.low.env_terminal)}
             high_tr = {"s": seg_obs, "c": jnp.zeros((0,)), "a": high_action, "r": f,
-                       "s2": res.obs,
+                       "s2": self.high_obs(res.obs, steps_left - 1, horizon),
                        "terminated": value_terminal(res, c.high.end_is_terminal,
                                                     c.high.env_terminal)}
             store_high = ~pretrain | c.pretrain_fills_high_buffer
             agent = agent.replace(low=low.store(agent.low, low_tr, alive),
                                   high=high.store(agent.high, high_tr, seg_end & store_high))
             started = agent.env_steps >= c.learning_starts
-            learn_low = alive & started
+            learn_low = alive & started & learned_low
             high_tick = seg_end if c.high_update_on == "segment" else alive
             learn_high = (high_tick & started & ~pretrain
                           & (agent.high.buffer.size >= c.high_learning_starts))
@@ -267,4 +300,8 @@ def make_hiddpg(config: HIDDPGConfig, env: Environment) -> HIDDPG:
     """HI-DDPG for ``env`` (any :class:`Environment` that declares a ``goal_space``)."""
     if getattr(env, "goal_space", None) is None:
         raise ValueError(f"{env!r} declares no goal_space; HI-DDPG needs one (see GoalSpace)")
+    if config.low_controller == "reference" and not hasattr(env, "reference_controller"):
+        raise ValueError(f"low_controller='reference' needs an environment with a "
+                         f"reference_controller (the PuckWorld tasks); {env!r} has none: "
+                         "use low_controller='learned'")
     return HIDDPG(config, env)

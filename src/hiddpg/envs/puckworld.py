@@ -294,6 +294,12 @@ class _Puck(Environment):
     def dynamics(self, x: jax.Array, action: jax.Array, params: PuckParams) -> jax.Array:
         return dynamics(x, action, params)
 
+    def reference_controller(self, obs: jax.Array, goal: jax.Array,
+                             params: PuckParams) -> jax.Array:
+        """:func:`reference_action` towards a full goal vector (HI-DDPG's
+        ``low_controller="reference"``)."""
+        return reference_action(obs, self.goal_space.select(goal), params)
+
 
 class PuckTrajectory(_Puck):
     """Trajectory following (§1.1) through the ``n_goals`` reference goals of the spec.

@@ -40,11 +40,13 @@ def first_segment(trainer: Any, state: Any, keys: jax.Array, durations: Any,
         raise ValueError(f"durations {np.asarray(durations).tolist()} must lie in "
                          f"[duration_min, duration_max] = [{c.duration_min}, {c.duration_max}]")
     t_units = agent.duration_unit(durations)
+    horizon = agent.env.max_steps(params)
     fixed = None if goal is None else space.unscale(jnp.asarray(goal, jnp.float32))
 
     def one(agent_state, key):
         high = agent_state.high
         obs, _ = agent.env.reset(jax.random.split(key)[0], params)  # evaluate's start state
+        obs = agent.high_obs(obs, jnp.asarray(horizon), horizon)  # the high level's input
         own = agent.high.act(high, obs, jnp.zeros((0,)))
         base = own if fixed is None else own.at[: agent.goal_dim].set(fixed)
         actions = jnp.concatenate(
