@@ -99,7 +99,7 @@ def _first_segment_lengths(traj) -> np.ndarray:
 def test_hold_choice_holds_exactly_when_the_critic_prefers_it():
     """At the start state the critic compares the actor's (g, T) with (g, hold to the end);
     negating the critic flips every comparison, so each seed is tested on both sides."""
-    trainer, plain = _trainer("agent.hold_choice=true"), _trainer()
+    trainer, plain = _trainer("agent.hold_choice=true"), _trainer("agent.hold_choice=false")
     agent = trainer.agent
     keys = eval_keys(0, SEEDS)
     state = trainer.init_seeds(seed_keys(SEEDS))
@@ -109,7 +109,7 @@ def test_hold_choice_holds_exactly_when_the_critic_prefers_it():
     for st in (state, _negated_critic(state)):
         _, traj = trainer.evaluate_seeds(st, keys)
         _, traj_plain = plain.evaluate_seeds(st, keys)
-        obs0 = traj["obs"][:, 0]
+        obs0 = jax.vmap(lambda o: agent.high_obs(o, jnp.asarray(30), 30))(traj["obs"][:, 0])
         own = act(st.agent.high, obs0)
         hold = own.at[:, -1].set(agent.duration_unit(jnp.asarray(30.0)))
         prefers = np.asarray(q(st.agent.high, obs0, hold) > q(st.agent.high, obs0, own))
