@@ -14,6 +14,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import math
 
 from hiddpg.envs import make as make_env
 from hiddpg.experiments.plans import best_plans
@@ -26,6 +27,8 @@ def main() -> None:
     parser.add_argument("--switch-cost", type=float, default=10.0)
     parser.add_argument("--max-goals", type=int, default=3)
     args = parser.parse_args()
+    if not math.isfinite(args.switch_cost):
+        parser.error(f"--switch-cost {args.switch_cost} must be a finite number")
     if not 1 <= args.max_goals <= 4:
         parser.error(f"--max-goals {args.max_goals} must be 1 to 4 (the search enumerates every "
                      "set of switch steps)")

@@ -203,7 +203,8 @@ class HIDDPGConfig:
     """``"reference"``: the low level is not learned; the environment's own goal-reaching
     controller acts instead (the puck's LQR reference controller, spec §1.1) — a diagnostic
     that separates what the high level learns from what the low level does [decision;
-    "learned" = the paper's method]. Environments without a ``reference_controller`` refuse it."""
+    "learned" = the paper's method]. It acts noise-free, also in the random phase.
+    Environments without a ``reference_controller`` refuse it."""
     high_time_input: bool = False
     """The high level also sees the fraction of the episode left, ``steps_left / horizon``
     (its MDP is then Markov on the time-indexed tasks, where the reward depends on the step)

@@ -44,6 +44,26 @@ def test_the_actors_own_first_segment_is_the_evaluation_episode():
                                rtol=1e-5, atol=1e-4)
 
 
+def test_the_policy_is_the_hold_choice_on_either_side():
+    """The preset holds where the critic prefers it; with the critic's sign flipped every
+    choice flips, and the probe's policy still reproduces the evaluation exactly."""
+    trainer, state = _setup()
+    assert trainer.agent.config.hold_choice
+    keys = eval_keys(0, SEEDS)
+    critic = state.agent.high.block.critic
+    flipped = {"params": dict(critic["params"],
+                              out={k: -v for k, v in critic["params"]["out"].items()})}
+    high = state.agent.high.replace(block=state.agent.high.block.replace(critic=flipped))
+    durations = []
+    for st in (state, state.replace(agent=state.agent.replace(high=high))):
+        metrics, _ = trainer.evaluate_seeds(st, keys)
+        out = first_segment(trainer, st, keys, [30.0])
+        np.testing.assert_allclose(out["policy"]["return"], np.asarray(metrics["return"]),
+                                   rtol=1e-6, atol=1e-5)
+        durations.append(np.asarray(out["policy"]["duration"]) >= 29.5)
+    np.testing.assert_array_equal(durations[0], ~durations[1])  # held on exactly one side
+
+
 def test_a_given_goal_replaces_the_actors_and_bad_durations_are_refused():
     trainer, state = _setup()
     keys = eval_keys(0, SEEDS)

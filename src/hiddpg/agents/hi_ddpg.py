@@ -122,6 +122,17 @@ class HIDDPG:
             use = use | (jax.random.uniform(jax.random.fold_in(key, 7)) < c.hold_explore)
         return jnp.where(use & free, hold, action)
 
+    def policy_action(self, state: HIDDPGState, hobs: jax.Array,
+                      steps_left: jax.Array) -> jax.Array:
+        """The noise-free high-level action at a switch from input ``hobs``
+        (:meth:`high_obs`): the actor's, with its goal held to the end where ``hold_choice``
+        prefers that — what an evaluation episode does."""
+        action = self.high.act(state.high, hobs, jnp.zeros((0,)))
+        if not self.config.hold_choice:
+            return action
+        return self._hold(state, hobs, action, steps_left, jax.random.PRNGKey(0), False,
+                          jnp.array(True))
+
     def env_action(self, unit: jax.Array) -> jax.Array:
         return affine_unit(unit, self.env.action_low, self.env.action_high)
 

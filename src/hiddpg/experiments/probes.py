@@ -28,7 +28,8 @@ def first_segment(trainer: Any, state: Any, keys: jax.Array, durations: Any,
     (also ``env_return``, ``goals``, the number of goals used, and ``first_goal``, the goal
     held first) of the first segment ``(g, T)``, ``g`` the actor's first goal (or ``goal``, in
     the goal space's units) and ``T`` each of ``durations``; ``policy`` holds each seed's own
-    first action decoded (``goal``, ``duration``) with its critic value and return. ``keys``
+    first action decoded (``goal``, ``duration``; with ``hold_choice`` the duration the choice
+    makes) with its critic value and return. ``keys``
     are the evaluation keys (:func:`hiddpg.commands.eval.eval_keys`), so that the actor's own
     action reproduces the evaluation's return."""
     agent, params = trainer.agent, trainer.env_params
@@ -47,7 +48,7 @@ def first_segment(trainer: Any, state: Any, keys: jax.Array, durations: Any,
         high = agent_state.high
         obs, _ = agent.env.reset(jax.random.split(key)[0], params)  # evaluate's start state
         obs = agent.high_obs(obs, jnp.asarray(horizon), horizon)  # the high level's input
-        own = agent.high.act(high, obs, jnp.zeros((0,)))
+        own = agent.policy_action(agent_state, obs, jnp.asarray(horizon))
         base = own if fixed is None else own.at[: agent.goal_dim].set(fixed)
         actions = jnp.concatenate(
             [jnp.broadcast_to(base[: agent.goal_dim], (len(t_units), agent.goal_dim)),
