@@ -219,6 +219,17 @@ class HIDDPGConfig:
     hold_explore: float = 0.0
     """Probability that a training switch holds its goal to the end, so that ``D_H`` holds
     such segments from every switch state [decision; 0 = none]."""
+    duration_choice: Literal["actor", "argmax"] = "actor"
+    """How the high level picks the duration: ``"actor"``, its actor outputs ``(g, T)``
+    [paper]; ``"argmax"``, the actor maps ``(s, T)`` to a goal and the critic picks the
+    integer ``T`` whose goal it values most (:mod:`hiddpg.agents.durations`) [decision].
+    ``"argmax"`` needs ``high_time_input``, no model (``model_weight = 0``, ``use_model =
+    False``: the high model does not see ``T``), and no ``hold_choice``/``hold_explore``
+    (holding is one of its choices)."""
+    duration_explore: float = 0.0
+    """Probability that a training switch draws its duration uniformly from the integers in
+    ``[T_min, T_max]`` (at most the steps left); with ``"argmax"`` the goal is then the
+    actor's for that duration [decision; 0 = none]."""
     model_weight: float = 1.0
     """λ_model, weight of the model-based gradient (eqs. 6-7) [decision]."""
     use_model: bool = True
@@ -270,6 +281,28 @@ class HIDDPGConfig:
         if not 0.0 <= self.hold_explore <= 1.0:
             raise ValueError(f"HIDDPGConfig.hold_explore={self.hold_explore} must be a "
                              "probability in [0, 1]")
+        if self.duration_choice not in ("actor", "argmax"):
+            raise ValueError(f"HIDDPGConfig.duration_choice={self.duration_choice!r} must be "
+                             "'actor' or 'argmax'")
+        if not 0.0 <= self.duration_explore <= 1.0:
+            raise ValueError(f"HIDDPGConfig.duration_explore={self.duration_explore} must be "
+                             "a probability in [0, 1]")
+        if self.duration_choice == "argmax":
+            clash = [f"{k}={getattr(self, k)}" for k, bad in (
+                ("high_time_input", not self.high_time_input),
+                ("model_weight", self.model_weight != 0), ("use_model", self.use_model),
+                ("hold_choice", self.hold_choice), ("hold_explore", self.hold_explore != 0))
+                if bad]
+            if clash:
+                raise ValueError(
+                    f"HIDDPGConfig.duration_choice='argmax' does not work with {', '.join(clash)}"
+                    ": it needs high_time_input=True, model_weight=0, use_model=False, "
+                    "hold_choice=False and hold_explore=0")
+            if math.floor(self.duration_max) - math.ceil(self.duration_min) < 1:
+                raise ValueError(
+                    f"HIDDPGConfig.duration_choice='argmax' needs at least two integer "
+                    f"durations in [duration_min, duration_max] = [{self.duration_min}, "
+                    f"{self.duration_max}]")
         if not math.isfinite(self.switch_cost):
             raise ValueError(f"HIDDPGConfig.switch_cost={self.switch_cost} must be finite")
         _unit(self, "lr_decay")

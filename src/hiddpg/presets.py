@@ -10,6 +10,7 @@ before anything is compiled, so a bad value fails at once with a message naming 
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import json
 import typing
@@ -23,6 +24,8 @@ from hiddpg.configs import (
     LevelConfig,
     NoiseConfig,
     TrainConfig,
+    from_dict,
+    to_dict,
 )
 from hiddpg.envs import task_name
 
@@ -193,7 +196,18 @@ def apply_overrides(cfg: TrainConfig, sets: list[str] | tuple[str, ...]) -> Trai
             cfg = dataclasses.replace(cfg, env=tuple(sorted(env.items())))
             continue
         cfg = _set_path(cfg, path, raw, full=key)
-    return cfg
+    # validate once, after all of them: options that constrain each other (e.g.
+    # duration_choice='argmax' with model_weight=0) can then be set in any order
+    return from_dict(to_dict(cfg))
+
+
+def _replace_unchecked(obj: Any, **changes: Any) -> Any:
+    """``dataclasses.replace`` without ``__post_init__`` (:func:`apply_overrides` validates
+    the whole config at the end)."""
+    new = copy.copy(obj)
+    for name, value in changes.items():
+        object.__setattr__(new, name, value)
+    return new
 
 
 def _set_path(obj: Any, path: list[str], raw: str, full: str) -> Any:
@@ -207,12 +221,12 @@ def _set_path(obj: Any, path: list[str], raw: str, full: str) -> Any:
     if len(path) > 1:
         if not dataclasses.is_dataclass(current):
             raise ValueError(f"--set {full}: {name!r} has no sub-keys")
-        return dataclasses.replace(obj, **{name: _set_path(current, path[1:], raw, full)})
+        return _replace_unchecked(obj, **{name: _set_path(current, path[1:], raw, full)})
     if dataclasses.is_dataclass(current):
         raise ValueError(f"--set {full}: {name!r} is a group; set one of its keys, e.g. "
                          f"{full}.{dataclasses.fields(current)[0].name}=...")
     value = _coerce(_parse(raw), typing.get_type_hints(type(obj))[name], current, full)
-    return dataclasses.replace(obj, **{name: value})
+    return _replace_unchecked(obj, **{name: value})
 
 
 def _parse(raw: str) -> Any:

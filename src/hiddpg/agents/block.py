@@ -161,9 +161,13 @@ class DDPGBlock:
     # -- critic (eq. 3) -----------------------------------------------------------------------
     def target(self, state: BlockState, batch: Batch) -> jax.Array:
         """``y = r + γ (1 − terminated) Q'(s', μ'(s'))``; ``batch["discount"]`` (if present)
-        replaces ``γ`` per sample. No gradient flows through ``y``."""
+        replaces ``γ`` per sample, ``batch["next_q"]`` (if present) the next state's value
+        ``Q'(s', μ'(s'))``. No gradient flows through ``y``."""
         next_obs = batch["next_obs"]
-        next_q = self.q(state.target_critic, next_obs, self.mu(state.target_actor, next_obs))
+        if "next_q" in batch:
+            next_q = batch["next_q"]
+        else:
+            next_q = self.q(state.target_critic, next_obs, self.mu(state.target_actor, next_obs))
         discount = batch["discount"] if "discount" in batch else self.gamma
         not_done = 1.0 - jnp.asarray(batch["terminated"], jnp.float32)
         return jax.lax.stop_gradient(batch["reward"] + discount * not_done * next_q)

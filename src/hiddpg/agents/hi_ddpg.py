@@ -27,7 +27,7 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-from hiddpg.agents import noise
+from hiddpg.agents import durations, noise
 from hiddpg.agents.block import value_terminal
 from hiddpg.agents.level import Level, LevelState
 from hiddpg.configs import HIDDPGConfig
@@ -75,8 +75,15 @@ class HIDDPG:
     @property
     def high(self) -> Level:
         c = self.config
+        if self.argmax:  # context: the duration; action: the goal
+            return Level(c.high, self.env.obs_dim + 1, 1, self.goal_dim, 1.0, 0.0, False)
         return Level(c.high, self.env.obs_dim + int(c.high_time_input), 0, self.goal_dim + 1,
                      1.0, c.model_weight, c.use_model)
+
+    @property
+    def argmax(self) -> bool:
+        """Whether the critic chooses the duration (:mod:`hiddpg.agents.durations`)."""
+        return self.config.duration_choice == "argmax"
 
     @property
     def low(self) -> Level:
@@ -122,12 +129,30 @@ class HIDDPG:
             use = use | (jax.random.uniform(jax.random.fold_in(key, 7)) < c.hold_explore)
         return jnp.where(use & free, hold, action)
 
+    def high_q(self, state: HIDDPGState, hobs: jax.Array, action: jax.Array) -> jax.Array:
+        """The high critic's value of the unit action ``(g, T)`` at input ``hobs``."""
+        block, critic = self.high.block, state.high.block.critic
+        if self.argmax:
+            inputs = jnp.concatenate([hobs, action[self.goal_dim:]], axis=-1)
+            return block.q(critic, inputs, action[: self.goal_dim])
+        return block.q(critic, hobs, action)
+
+    def _actor_action(self, state: HIDDPGState, hobs: jax.Array,
+                      steps_left: jax.Array) -> jax.Array:
+        """The actor's noise-free ``(g, T)``; with ``"argmax"`` the critic's best duration
+        and the actor's goal for it."""
+        if not self.argmax:
+            return self.high.act(state.high, hobs, jnp.zeros((0,)))
+        block = state.high.block
+        tau, goal, _ = durations.best(self, block.actor, block.critic, hobs, steps_left)
+        return jnp.concatenate([goal, tau[None]])
+
     def policy_action(self, state: HIDDPGState, hobs: jax.Array,
                       steps_left: jax.Array) -> jax.Array:
         """The noise-free high-level action at a switch from input ``hobs``
         (:meth:`high_obs`): the actor's, with its goal held to the end where ``hold_choice``
         prefers that — what an evaluation episode does."""
-        action = self.high.act(state.high, hobs, jnp.zeros((0,)))
+        action = self._actor_action(state, hobs, steps_left)
         if not self.config.hold_choice:
             return action
         return self._hold(state, hobs, action, steps_left, jax.random.PRNGKey(0), False,
@@ -197,7 +222,7 @@ class HIDDPG:
         switch = carry.alive & (carry.remaining <= 0)
         steps_left = horizon - carry.env_state.t
         hobs = self.high_obs(carry.obs, steps_left, horizon)
-        high_action = high.act(agent.high, hobs, jnp.zeros((0,)))
+        high_action = self._actor_action(agent, hobs, steps_left)
         high_noise, low_noise = carry.high_noise, carry.low_noise
         random_phase = pretrain = jnp.array(False)
         if train:
@@ -205,6 +230,11 @@ class HIDDPG:
             high_noise = jax.tree.map(lambda a, b: jnp.where(switch, a, b), new_noise, high_noise)
             random_phase = agent.env_steps < c.learning_starts
             pretrain = agent.episodes < c.pretrain_episodes
+            if c.duration_explore > 0:
+                high_action = durations.explore(self, agent.high, hobs, high_action,
+                                                steps_left, keys[1])
+            if self.argmax:  # the duration is a choice, not a noisy output
+                eps = eps.at[self.goal_dim].set(0.0)
             uniform = jax.random.uniform(keys[1], high_action.shape, minval=-1.0, maxval=1.0)
             high_action = jnp.where(random_phase | pretrain, uniform,
                                     jnp.clip(high_action + eps, -1.0, 1.0))
@@ -216,6 +246,9 @@ class HIDDPG:
         high_action = jnp.where(switch, high_action, carry.high_action)
         goal, duration = self.decode(high_action)
         n = jnp.clip(jnp.round(duration), 1, steps_left).astype(jnp.int32)
+        if self.argmax:  # D_H stores the duration carried out
+            carried = high_action.at[self.goal_dim].set(self.duration_unit(n.astype(jnp.float32)))
+            high_action = jnp.where(switch, carried, high_action)
         remaining = jnp.where(switch, n, carry.remaining)
         seg_obs = jnp.where(switch, hobs, carry.seg_obs)
         seg_reward = jnp.where(switch, 0.0, carry.seg_reward)
@@ -245,7 +278,10 @@ class HIDDPG:
             low_tr = {"s": carry.obs, "c": goal, "a": action, "r": r_int, "s2": res.obs,
                       "terminated": value_terminal(res, c.low.end_is_terminal,
                                                   c.low.env_terminal)}
-            high_tr = {"s": seg_obs, "c": jnp.zeros((0,)), "a": high_action, "r": f,
+            gd = self.goal_dim
+            context, act = ((high_action[gd:], high_action[:gd]) if self.argmax
+                            else (jnp.zeros((0,)), high_action))
+            high_tr = {"s": seg_obs, "c": context, "a": act, "r": f,
                        "s2": self.high_obs(res.obs, steps_left - 1, horizon),
                        "terminated": value_terminal(res, c.high.end_is_terminal,
                                                     c.high.env_terminal)}
@@ -258,7 +294,9 @@ class HIDDPG:
             learn_high = (high_tick & started & ~pretrain
                           & (agent.high.buffer.size >= c.high_learning_starts))
             low_state, low_m = low.maybe_update(agent.low, keys[5], learn_low)
-            high_state, high_m = high.maybe_update(agent.high, keys[6], learn_high)
+            hooks = ((durations.next_value(self, horizon), durations.actor_inputs(self, horizon))
+                     if self.argmax else ())
+            high_state, high_m = high.maybe_update(agent.high, keys[6], learn_high, *hooks)
             agent = agent.replace(low=low_state, high=high_state,
                                   env_steps=agent.env_steps + alive.astype(jnp.int32))
             for m in _LOSSES:

@@ -110,16 +110,25 @@ class Level:
         return lambda inputs, a: lam * batched_model_gradient(value, predict, inputs, a)
 
     # -- one update -------------------------------------------------------------------------
-    def update(self, state: LevelState, key: jax.Array) -> tuple[LevelState, dict]:
-        """Critic, actor (with the model-based term), model and target updates on one batch."""
+    def update(self, state: LevelState, key: jax.Array, next_value: Any = None,
+               actor_inputs: Any = None) -> tuple[LevelState, dict]:
+        """Critic, actor (with the model-based term), model and target updates on one batch.
+
+        ``next_value(block, block_state, s2)``, if given, is the critic target's value of the
+        next states (instead of ``Q'(s2, μ'(s2))``); ``actor_inputs(key, inputs)``, if given,
+        rewrites the actor's batch of ``[s, c]`` (:mod:`hiddpg.agents.durations`)."""
         tr = buffer.sample(state.buffer, key, self.config.batch_size)
         inputs = jnp.concatenate([tr["s"], tr["c"]], axis=-1)
         batch = {"obs": inputs, "action": tr["a"], "reward": tr["r"],
                  "next_obs": jnp.concatenate([tr["s2"], tr["c"]], axis=-1),
                  "terminated": tr["terminated"]}
         block = self.block
+        if next_value is not None:
+            batch["next_q"] = next_value(block, state.block, tr["s2"])
         block_state, critic_m = block.critic_update(state.block, batch)
         extra = self.extra_dq_da(block_state, state.model) if self.model_weight > 0 else None
+        if actor_inputs is not None:
+            inputs = actor_inputs(jax.random.fold_in(key, 1), inputs)
         block_state, actor_m = block.actor_update(block_state, inputs, extra)
         block_state = block.soft_update(block_state)
         model_state, model_loss = state.model, jnp.zeros(())
@@ -129,9 +138,11 @@ class Level:
                    "model_loss": model_loss}
         return state.replace(block=block_state, model=model_state), metrics
 
-    def maybe_update(self, state: LevelState, key: jax.Array, do: jax.Array):
+    def maybe_update(self, state: LevelState, key: jax.Array, do: jax.Array,
+                     next_value: Any = None, actor_inputs: Any = None):
         """:meth:`update` if ``do`` else nothing (a branch even under the seed ``vmap``)."""
-        return gated(do, lambda s: self.update(s, key), lambda s: (s, zero_metrics()), state)
+        return gated(do, lambda s: self.update(s, key, next_value, actor_inputs),
+                     lambda s: (s, zero_metrics()), state)
 
 
 def zero_metrics() -> dict[str, Any]:

@@ -45,7 +45,6 @@ def first_segment(trainer: Any, state: Any, keys: jax.Array, durations: Any,
     fixed = None if goal is None else space.unscale(jnp.asarray(goal, jnp.float32))
 
     def one(agent_state, key):
-        high = agent_state.high
         obs, _ = agent.env.reset(jax.random.split(key)[0], params)  # evaluate's start state
         obs = agent.high_obs(obs, jnp.asarray(horizon), horizon)  # the high level's input
         own = agent.policy_action(agent_state, obs, jnp.asarray(horizon))
@@ -53,7 +52,7 @@ def first_segment(trainer: Any, state: Any, keys: jax.Array, durations: Any,
         actions = jnp.concatenate(
             [jnp.broadcast_to(base[: agent.goal_dim], (len(t_units), agent.goal_dim)),
              t_units[:, None]], axis=1)
-        q = jax.vmap(lambda a: agent.high.block.q(high.block.critic, obs, a))
+        q = jax.vmap(lambda a: agent.high_q(agent_state, obs, a))
 
         def truth(first):
             metrics, traj = agent.evaluate(key, agent_state, params, first)
