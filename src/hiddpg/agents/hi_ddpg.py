@@ -9,6 +9,8 @@ the intrinsic reward ``r_int = -|P (s' - g)|``. The high level's reward for segm
 Under ``jit``/``vmap`` switching is a mask: every step computes the high level's candidate
 action and keeps it with ``where(switch, new, old)``; ``D_H`` gets a masked insert and the
 high-level update is gated by the segment end. One episode is a ``lax.scan`` over the horizon.
+With ``duration_choice="argmax"`` the critic picks the duration and the actor the goal for it
+(:mod:`hiddpg.agents.durations`).
 
 Phases (spec §2): the first ``learning_starts`` environment steps use uniformly random goals,
 durations and actions; during the first ``pretrain_episodes`` episodes the high level is
