@@ -193,7 +193,7 @@ def apply_overrides(cfg: TrainConfig, sets: list[str] | tuple[str, ...]) -> Trai
         if path[0] == "env" and len(path) == 2:
             env = dict(cfg.env)
             env[path[1]] = _parse(raw)
-            cfg = dataclasses.replace(cfg, env=tuple(sorted(env.items())))
+            cfg = _replace_unchecked(cfg, env=tuple(sorted(env.items())))
             continue
         cfg = _set_path(cfg, path, raw, full=key)
     # validate once, after all of them: options that constrain each other (e.g.
