@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from hiddpg.envs import make
-from hiddpg.presets import STABILIZE, make_config
+from hiddpg.presets import CRITIC_DURATIONS, STABILIZE, make_config
 
 PUCK = ("PuckTrajectory1", "PuckTrajectory2", "PuckTrajectory3", "PuckObstacle")
 ARM = ("ArmReach", "ArmObstacle")
@@ -61,3 +61,22 @@ def test_high_level_noise_decays_on_the_arm_obstacle_task_only(task, preset):
     explicit = make_config("hi-ddpg", "ArmObstacle", preset,
                            ["episodes=1234", "agent.high.noise.decay_episodes=100"])
     assert explicit.agent.high.noise.decay_episodes == 100
+
+
+def test_the_critic_durations_sets_make_a_valid_argmax_config_with_low_noise_to_zero():
+    """``CRITIC_DURATIONS`` on top of the hold-choice preset: argmax durations, no model,
+    goals penalised by 0.1, and the low level's noise reaching 0 with this run's episodes."""
+    for preset in ("paper", "quick"):
+        cfg = make_config("hi-ddpg", "PuckTrajectory2", preset,
+                          ["episodes=700", *CRITIC_DURATIONS])
+        agent = cfg.agent
+        assert (agent.duration_choice, agent.duration_explore, agent.hold_choice) == (
+            "argmax", 0.5, False)
+        assert agent.model_weight == 0.0 and not agent.use_model and agent.high_time_input
+        assert agent.high.action_l2 == 0.1 and agent.low.action_l2 == 1.0
+        low = agent.low.noise
+        assert (low.sigma, low.final_sigma, low.decay_episodes) == (0.1, 0.0, 700)
+        assert not agent.high.noise.decays
+    explicit = make_config("hi-ddpg", "PuckTrajectory2", "quick",
+                           ["episodes=700", *CRITIC_DURATIONS, "agent.low.noise.decay_episodes=9"])
+    assert explicit.agent.low.noise.decay_episodes == 9

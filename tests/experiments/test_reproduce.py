@@ -225,3 +225,25 @@ def test_bar_counts_runs_with_every_goal_near_and_the_reference_switches():
     near = np.array([[0.1, 0.2], [0.1, 0.35], [0.29, 0.0], [0.5, 0.5]])
     got = bar_counts(near, np.array([1.0, 1.0, 2.0, 1.0]), reference_switches=1)
     assert got == {"runs": 4, "goals": 2, "switches": 3, "both": 1}
+
+
+def test_paper_scale_trajectory_runs_get_the_critic_durations_and_6000_episodes(tmp_path):
+    """Paper scale: HI-DDPG on PuckTrajectory1-3 with ``CRITIC_DURATIONS`` for 6000 episodes;
+    the other tasks, the other algorithms and the quick scale keep the presets' budgets."""
+    from hiddpg.experiments.common import budget_table
+
+    paper, quick = Context(tmp_path, scale="paper"), Context(tmp_path, scale="quick")
+    for task in ("PuckTrajectory1", "hiddpg/PuckTrajectory3-v0"):
+        cfg = paper.config("hi-ddpg", task)
+        assert (cfg.episodes, cfg.agent.duration_choice) == (6000, "argmax")
+        assert cfg.agent.low.noise.decay_episodes == 6000
+        assert paper.config("ddpg", task).episodes == 6000  # the budget, not the sets
+        small = quick.config("hi-ddpg", task)
+        assert (small.episodes, small.agent.duration_choice, small.agent.hold_choice) == (
+            1500, "actor", True)
+    for task in ("PuckObstacle", "ArmObstacle"):
+        cfg = paper.config("hi-ddpg", task)
+        assert (cfg.episodes, cfg.agent.duration_choice) == (3000, "actor")
+    row = [r for r in budget_table().splitlines() if "PuckTrajectory1-3" in r]
+    assert len(row) == 1 and "duration_choice=argmax" in row[0]
+    assert report.parse_numbers(row[0])[2:4] == [15, 6000]  # after PuckTrajectory1-3

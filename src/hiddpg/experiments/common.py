@@ -27,6 +27,7 @@ import numpy as np
 
 from hiddpg.configs import TrainConfig
 from hiddpg.experiments.rundata import SNAPSHOT_DIR, ExperimentError
+from hiddpg.presets import CRITIC_DURATIONS
 from hiddpg.runs import CONFIG_FILE, Run, atomic_write, make_trainer
 
 SCALES = ("quick", "paper")
@@ -45,6 +46,8 @@ class Budget:
     episodes: int
     eval_every: int
     chunk_episodes: int
+    hi_ddpg_sets: tuple[str, ...] = ()
+    """``--set`` overrides of the HI-DDPG runs (``hi-ddpg``, ``hi-ddpg-wo-model``)."""
 
 
 #: (scale, task family) -> budget. ``quick`` is the quick preset's own budget (the smallest
@@ -64,18 +67,42 @@ BUDGETS: dict[tuple[str, str], Budget] = {
                              chunk_episodes=250),
     ("paper", "puck"): Budget("quick", seeds=15, episodes=3000, eval_every=20,
                               chunk_episodes=250),
+    ("paper", "trajectory"): Budget("quick", seeds=15, episodes=6000, eval_every=20,
+                                    chunk_episodes=250, hi_ddpg_sets=CRITIC_DURATIONS),
     ("paper", "arm"): Budget("quick", seeds=15, episodes=3000, eval_every=20,
                              chunk_episodes=250),
 }
+"""At paper scale HI-DDPG on the trajectory tasks gets the critic-chosen durations
+(``presets.CRITIC_DURATIONS``) and twice the paper's episodes [decision]: with them
+PuckTrajectory2's runs that hold both reference goals within 0.3 went from 2/15 (3000
+episodes) to 5/15 (4500) and 9/15 (6000).
+A (scale, group) missing here falls back to the task's family (``budget_group``)."""
+
+
+GROUP_TASKS = {"trajectory": "PuckTrajectory1-3"}
+
+
+def budget_group(scale: str, task: str) -> str:
+    """The key of ``task``'s budget at ``scale``: ``"trajectory"`` (PuckTrajectory*) where
+    that scale has its own, else the family (``"puck"`` or ``"arm"``)."""
+    from hiddpg.envs import task_name
+    from hiddpg.presets import task_family
+
+    if task_name(task).startswith("PuckTrajectory") and (scale, "trajectory") in BUDGETS:
+        return "trajectory"
+    return task_family(task)
 
 
 def budget_table() -> str:
     """The budgets as a markdown table (README, report)."""
-    rows = ["| scale | tasks | preset | seeds | episodes | eval every | chunk |",
-            "|---|---|---|---:|---:|---:|---:|"]
-    for (scale, family), b in BUDGETS.items():
-        rows.append(f"| {scale} | {family} | {b.preset} | {b.seeds} | {b.episodes} | "
-                    f"{b.eval_every} | {b.chunk_episodes} |")
+    rows = ["| scale | tasks | preset | seeds | episodes | eval every | chunk | HI-DDPG sets |",
+            "|---|---|---|---:|---:|---:|---:|---|"]
+    for (scale, group), b in BUDGETS.items():
+        sets = " ".join(f"`{s}`" for s in b.hi_ddpg_sets) or "-"
+        tasks = ("puck, but PuckTrajectory" if group == "puck" and (scale, "trajectory")
+                 in BUDGETS else GROUP_TASKS.get(group, group))
+        rows.append(f"| {scale} | {tasks} | {b.preset} | {b.seeds} | "
+                    f"{b.episodes} | {b.eval_every} | {b.chunk_episodes} | {sets} |")
     return "\n".join(rows)
 
 
@@ -107,9 +134,7 @@ class Context:
         print(message, file=self.log or sys.stderr, flush=True)
 
     def budget(self, task: str) -> Budget:
-        from hiddpg.presets import task_family
-
-        return BUDGETS[(self.scale, task_family(task))]
+        return BUDGETS[(self.scale, budget_group(self.scale, task))]
 
     def seed_list(self, task: str) -> list[int]:
         return list(range(self.seeds or self.budget(task).seeds))
@@ -128,6 +153,8 @@ class Context:
         episodes = self.episodes or b.episodes
         sets = [f"episodes={episodes}", f"eval_every={min(b.eval_every, episodes)}",
                 f"chunk_episodes={b.chunk_episodes}"]
+        if algo in ("hi-ddpg", "hi-ddpg-wo-model"):
+            sets += list(b.hi_ddpg_sets)
         return sets + expand_sets(make_config(algo, task, b.preset, sets), self.sets)
 
     def config(self, algo: str, task: str) -> TrainConfig:
