@@ -47,7 +47,8 @@ def test_fig4_writes_figures_and_a_report_whose_numbers_parse(reproduced):
     text = (reproduced / "report.md").read_text()
     assert "## Fig. 4" in text and "![fig4](figures/fig4.png)" in text
     task_rows = [r for r in report.table_rows(text) if r[0] == "PuckTrajectory2"]
-    rows, (bar,) = task_rows[:2], task_rows[2:]  # one row per reference goal, then the bar
+    # one row per reference goal, then the bar, then the bar over training
+    rows, (bar, history) = task_rows[:2], task_rows[2:]
     numbers = json.loads((reproduced / "sections" / "fig4.json").read_text())["numbers"]
     mine = numbers["PuckTrajectory2"]
     for g, row in enumerate(rows):
@@ -63,6 +64,10 @@ def test_fig4_writes_figures_and_a_report_whose_numbers_parse(reproduced):
     counts = mine["bar"]
     assert bar[1:] == [f"{counts[k]} / 2" for k in ("goals", "switches", "both")]
     assert counts["switches"] == sum(s == 1 for s in mine["switches"])
+    episodes_runs = report.parse_numbers(history[1])  # "e1: n1, e2: n2, ..." (last: final)
+    assert episodes_runs[-2:] == [mine["episode"], counts["both"]]
+    assert [list(p) for p in mine["bar_history"]] == [
+        [int(e), int(n)] for e, n in zip(episodes_runs[::2], episodes_runs[1::2], strict=True)]
     times = {r[0]: report.parse_numbers(r[1]) for r in report.table_rows(text)
              if "training" in r[0] or "fig4" in r[0]}
     assert all(v and v[0] > 0 for v in times.values())
@@ -225,6 +230,25 @@ def test_bar_counts_runs_with_every_goal_near_and_the_reference_switches():
     near = np.array([[0.1, 0.2], [0.1, 0.35], [0.29, 0.0], [0.5, 0.5]])
     got = bar_counts(near, np.array([1.0, 1.0, 2.0, 1.0]), reference_switches=1)
     assert got == {"runs": 4, "goals": 2, "switches": 3, "both": 1}
+
+
+def test_bar_history_counts_each_snapshot():
+    from hiddpg.experiments.rundata import Snapshot
+    from hiddpg.experiments.trajectory import bar_history
+
+    def snap(episode, goal_rows, switches):
+        goal = np.array(goal_rows, dtype=float)
+        switch = np.zeros(goal.shape[:2])
+        switch[:, 0] = 1
+        switch[:, 2] = switches
+        traj = {"goal": goal, "switch": switch, "alive": np.ones(goal.shape[:2])}
+        return Snapshot(episode, {"switches": np.array(switches, float)}, traj)
+
+    ref, steps = np.array([[1.0, 0.0], [3.0, 2.0]]), np.array([2])
+    good, far = [[1.0, 0.1]] * 2 + [[3.0, 2.1]] * 2, [[1.0, 0.0]] * 2 + [[3.0, 2.5]] * 2
+    snaps = [snap(10, [far, far], [1, 1]), snap(20, [good, far], [1, 1]),
+             snap(30, [good, good], [1, 0])]
+    assert bar_history(snaps, ref, steps, 4) == [(10, 0), (20, 1), (30, 1)]
 
 
 def test_paper_scale_trajectory_runs_get_the_critic_durations_and_6000_episodes(tmp_path):
