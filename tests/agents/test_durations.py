@@ -98,15 +98,24 @@ def test_the_target_values_the_next_state_by_the_online_choice_and_the_target_ne
     trainer, state = _trained(2)
     agent, block = trainer.agent, trainer.agent.high.block
     bs = state.high.block
-    # make the target networks differ from the online ones
-    bs = bs.replace(target_critic=jax.tree.map(lambda p: p * 0.9, bs.critic))
-    s2 = jnp.asarray([[0.1, 0.2, 0.0, 0.0, 0.5], [1.0, -1.0, 0.3, 0.2, 0.1]])
+    # make the target networks differ from the online ones (noise on every weight)
+    leaves, tree = jax.tree.flatten(bs.critic)
+    keys = jax.random.split(jax.random.PRNGKey(7), len(leaves))
+    noisy = [p + 0.3 * jax.random.normal(k, p.shape) for p, k in zip(leaves, keys, strict=True)]
+    bs = bs.replace(target_critic=jax.tree.unflatten(tree, noisy))
+    s2 = jax.random.uniform(jax.random.PRNGKey(3), (24, 5), minval=-1.0, maxval=1.0)
+    s2 = s2.at[:, -1].set(jnp.linspace(0.1, 1.0, 24))  # time left: 3 ... 30 steps
     got = durations.next_value(agent, 30)(block, bs, s2)
-    for i, left in enumerate((15, 3)):
-        tau, _, _ = durations.best(agent, bs.actor, bs.critic, s2[i], jnp.asarray(left))
+    differ = 0
+    for i in range(len(s2)):
+        left = jnp.maximum(jnp.round(s2[i, -1] * 30), 1.0)
+        tau, _, _ = durations.best(agent, bs.actor, bs.critic, s2[i], left)
+        own, _, _ = durations.best(agent, bs.target_actor, bs.target_critic, s2[i], left)
         inp = jnp.concatenate([s2[i], tau[None]])
         want = block.q(bs.target_critic, inp, block.mu(bs.target_actor, inp))
         np.testing.assert_allclose(float(got[i]), float(want), rtol=1e-5)
+        differ += int(float(own) != float(tau))
+    assert differ >= 3  # where the target networks would choose otherwise, the online choice counts
     inputs = jnp.tile(jnp.asarray([[0.1, 0.2, 0.0, 0.0, 0.2, -1.0]]), (500, 1))  # 6 steps left
     redrawn = durations.actor_inputs(agent, 30)(jax.random.PRNGKey(1), inputs)
     _, t = jax.vmap(agent.decode)(jnp.concatenate([jnp.zeros((500, 2)), redrawn[:, -1:]], 1))
