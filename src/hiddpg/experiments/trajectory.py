@@ -190,7 +190,7 @@ def fig4(ctx: Context) -> dict:
         left.plot([], [], color="tab:red", label=f"generated (run {run.seeds[i]}, episodes "
                   f"{snaps[0].episode}-{final.episode})")
         left.set(title=f"{task}: trajectories", xlabel="x", ylabel="y", aspect="equal")
-        left.legend(fontsize=7)
+        left.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2))
         right.plot(ref[:, 0], ref[:, 1], color="tab:blue", lw=0.8, alpha=0.4)
         for j in range(final.traj["goal"].shape[0]):
             mine, _ = learned_goals(final.traj, j)
