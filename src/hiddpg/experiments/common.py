@@ -50,9 +50,10 @@ class Budget:
     """``--set`` overrides of the HI-DDPG runs (``hi-ddpg``, ``hi-ddpg-wo-model``)."""
 
 
-#: (scale, task family) -> budget. ``quick`` is the quick preset's own budget (the smallest
-#: that learns PuckTrajectory1: 1500 episodes with 300 of low-level pre-training; arm 1500
-#: with 200: at 600 HI-DDPG's high level was still exploring, -32.7 +- 2.8, at 1500 -11.5 +- 2.0)
+#: (scale, task group: ``budget_group``) -> budget. ``quick`` is the quick preset's own
+#: budget (the smallest that learns PuckTrajectory1: 1500 episodes with 300 of low-level
+#: pre-training; arm 1500 with 200: at 600 HI-DDPG's high level was still exploring, -32.7 +-
+#: 2.8, at 1500 -11.5 +- 2.0)
 #: on 3 seeds, about 20 minutes for ``all`` on 2 cores. ``paper`` is the paper's budget, 15 runs
 #: per method of 3000 episodes, trained with the *quick* preset's networks and rates
 #: [decision]: with the paper preset's (300-300 networks, high-level rate 2e-5, no puck
@@ -75,7 +76,8 @@ BUDGETS: dict[tuple[str, str], Budget] = {
 """At paper scale HI-DDPG on the trajectory tasks gets the critic-chosen durations
 (``presets.CRITIC_DURATIONS``) and twice the paper's episodes [decision]: with them
 PuckTrajectory2's runs that hold both reference goals within 0.3 went from 2/15 (3000
-episodes) to 5/15 (4500) and 9/15 (6000).
+episodes) to 5/15 (4500) and 9/15 (6000) when evaluating every 10 episodes; the
+reproduction's own run (every 20, other random draws): 4/15, one switch in 14/15.
 A (scale, group) missing here falls back to the task's family (``budget_group``)."""
 
 
