@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 ALGORITHMS = ("ddpg", "hi-ddpg", "hi-ddpg-wo-model", "h-ddpg")
+HI_DDPG_ALGORITHMS = ("hi-ddpg", "hi-ddpg-wo-model")
+"""The algorithms whose agent is :class:`HIDDPGConfig`'s (HI-DDPG with and without model)."""
 
 
 def _positive(obj: Any, *names: str) -> None:

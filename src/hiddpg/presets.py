@@ -18,6 +18,7 @@ from typing import Any
 
 from hiddpg.configs import (
     ALGORITHMS,
+    HI_DDPG_ALGORITHMS,
     DDPGConfig,
     HDDPGConfig,
     HIDDPGConfig,
@@ -115,7 +116,7 @@ def _paper_agent(algo: str, task: str) -> Any:
         return DDPGConfig(hidden=hidden, noise=noise, buffer_size=100_000,
                           lr_decay=0.99 if arm else 1.0, action_l2=action_l2,
                           tau=STABILIZE["tau"], end_is_terminal=end_terminal)
-    if algo in ("hi-ddpg", "hi-ddpg-wo-model"):
+    if algo in HI_DDPG_ALGORITHMS:
         switching = name.startswith("PuckTrajectory")
         high_noise = (dataclasses.replace(noise, final_sigma=0.0)
                       if name in DECAYING_HIGH_NOISE_TASKS else noise)

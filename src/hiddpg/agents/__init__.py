@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from hiddpg.configs import ALGORITHMS, DDPGConfig, HIDDPGConfig
+from hiddpg.configs import ALGORITHMS, HI_DDPG_ALGORITHMS, DDPGConfig, HIDDPGConfig
 
 
 def make_agent(algo: str, config: Any, env: Any) -> Any:
@@ -19,7 +19,7 @@ def make_agent(algo: str, config: Any, env: Any) -> Any:
 
         _expect(algo, config, DDPGConfig)
         return make_ddpg(config, env)
-    if algo in ("hi-ddpg", "hi-ddpg-wo-model"):
+    if algo in HI_DDPG_ALGORITHMS:
         from hiddpg.agents.hi_ddpg import make_hiddpg
 
         _expect(algo, config, HIDDPGConfig)

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from hiddpg.configs import TrainConfig
+from hiddpg.configs import HI_DDPG_ALGORITHMS, TrainConfig
 from hiddpg.experiments.rundata import SNAPSHOT_DIR, ExperimentError
 from hiddpg.presets import CRITIC_DURATIONS
 from hiddpg.runs import CONFIG_FILE, Run, atomic_write, make_trainer
@@ -155,7 +155,7 @@ class Context:
         episodes = self.episodes or b.episodes
         sets = [f"episodes={episodes}", f"eval_every={min(b.eval_every, episodes)}",
                 f"chunk_episodes={b.chunk_episodes}"]
-        if algo in ("hi-ddpg", "hi-ddpg-wo-model"):
+        if algo in HI_DDPG_ALGORITHMS:
             sets += list(b.hi_ddpg_sets)
         return sets + expand_sets(make_config(algo, task, b.preset, sets), self.sets)
 
