@@ -65,7 +65,8 @@ def test_high_level_noise_decays_on_the_arm_obstacle_task_only(task, preset):
 
 def test_the_critic_durations_sets_make_a_valid_argmax_config_with_low_noise_to_zero():
     """``CRITIC_DURATIONS`` on top of the hold-choice preset: argmax durations, no model,
-    goals penalised by 0.1, and the low level's noise reaching 0 with this run's episodes."""
+    goals penalised by 0.1, the low level's noise reaching 0 with this run's episodes, its
+    hindsight goals and the rest weight."""
     for preset in ("paper", "quick"):
         cfg = make_config("hi-ddpg", "PuckTrajectory2", preset,
                           ["episodes=700", *CRITIC_DURATIONS])
@@ -77,6 +78,7 @@ def test_the_critic_durations_sets_make_a_valid_argmax_config_with_low_noise_to_
         low = agent.low.noise
         assert (low.sigma, low.final_sigma, low.decay_episodes) == (0.1, 0.0, 700)
         assert not agent.high.noise.decays
+        assert (agent.low_hindsight, agent.intrinsic_rest_weight) == (0.8, 0.3)
     explicit = make_config("hi-ddpg", "PuckTrajectory2", "quick",
                            ["episodes=700", *CRITIC_DURATIONS, "agent.low.noise.decay_episodes=9"])
     assert explicit.agent.low.noise.decay_episodes == 9

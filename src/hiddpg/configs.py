@@ -201,6 +201,17 @@ class HIDDPGConfig:
     over ``γ_L = 0.95`` for the reward's one-step delay) makes the puck's reference controller
     the optimal low-level controller (tested), so the reference goals become the best goals.
     Not in the presets: DDPG's low level did not learn that controller (docs/results.md)."""
+    intrinsic_rest_weight: float = 0.0
+    """``w``: the low level's distance also counts the goal vector's other entries, weighted
+    by ``w``: ``r_int = -|(P (s' - g), w R s')|`` with ``R`` selecting the entries a goal does
+    not fix (the velocities: the paper's goal is the state ``[gx, gy, 0, 0]``), so that the
+    low level learns to arrive at rest rather than pass through the goal [decision; 0 = the
+    spec's form, the goal entries only]."""
+    low_hindsight: float = 0.0
+    """Fraction of the low level's minibatch whose goal is replaced by one reached later in
+    the same episode, with the reward recomputed (hindsight relabelling, the "future"
+    strategy of HER; :mod:`hiddpg.agents.hindsight`) [decision; 0 = plain DDPG on the goals
+    the high level set]."""
     low_controller: Literal["learned", "reference"] = "learned"
     """``"reference"``: the low level is not learned; the environment's own goal-reaching
     controller acts instead (the puck's LQR reference controller, spec §1.1) — a diagnostic
@@ -280,6 +291,12 @@ class HIDDPGConfig:
         if not (self.intrinsic_action_cost >= 0 and math.isfinite(self.intrinsic_action_cost)):
             raise ValueError(f"HIDDPGConfig.intrinsic_action_cost={self.intrinsic_action_cost} "
                              "must be a finite number >= 0")
+        if not (self.intrinsic_rest_weight >= 0 and math.isfinite(self.intrinsic_rest_weight)):
+            raise ValueError(f"HIDDPGConfig.intrinsic_rest_weight={self.intrinsic_rest_weight} "
+                             "must be a finite number >= 0")
+        if not 0.0 <= self.low_hindsight <= 1.0:
+            raise ValueError(f"HIDDPGConfig.low_hindsight={self.low_hindsight} must be a "
+                             "probability in [0, 1]")
         if not 0.0 <= self.hold_explore <= 1.0:
             raise ValueError(f"HIDDPGConfig.hold_explore={self.hold_explore} must be a "
                              "probability in [0, 1]")

@@ -31,6 +31,7 @@ from flax import struct
 
 from hiddpg.agents import durations, noise
 from hiddpg.agents.block import value_terminal
+from hiddpg.agents.hindsight import Hindsight
 from hiddpg.agents.level import Level, LevelState
 from hiddpg.configs import HIDDPGConfig
 from hiddpg.envs.base import Environment, affine_unit
@@ -90,8 +91,13 @@ class HIDDPG:
     @property
     def low(self) -> Level:
         c = self.config
+        hindsight = None
+        if c.low_hindsight > 0:
+            hindsight = Hindsight(c.low_hindsight, self.env.goal_space, self.env.obs_dim,
+                                  lambda s2, g, a: self.intrinsic_reward(s2, g,
+                                                                         self.env_action(a)))
         return Level(c.low, self.env.obs_dim, self.env.obs_dim, self.env.action_dim,
-                     float(self.env.dt), c.model_weight, c.use_model)
+                     float(self.env.dt), c.model_weight, c.use_model, hindsight)
 
     # -- the high-level action -------------------------------------------------------------
     def decode(self, high_action: jax.Array) -> tuple[jax.Array, jax.Array]:
@@ -170,6 +176,9 @@ class HIDDPG:
         environment action ``a``."""
         space, c = self.env.goal_space, self.config
         error = space.select(next_obs) - space.select(goal)
+        if c.intrinsic_rest_weight > 0:  # the goal's other entries (0: at rest) count too
+            rest = jnp.asarray([i for i in range(self.env.obs_dim) if i not in space.indices])
+            error = jnp.concatenate([error, c.intrinsic_rest_weight * next_obs[rest]])
         if c.intrinsic_squared:
             distance = jnp.sum(jnp.square(error))
         else:
@@ -280,6 +289,8 @@ class HIDDPG:
             low_tr = {"s": carry.obs, "c": goal, "a": action, "r": r_int, "s2": res.obs,
                       "terminated": value_terminal(res, c.low.end_is_terminal,
                                                   c.low.env_terminal)}
+            if c.low_hindsight > 0:  # where in the episode (agents/hindsight.py)
+                low_tr.update(ep=agent.episodes, left=steps_left - 1)
             gd = self.goal_dim
             context, act = ((high_action[gd:], high_action[:gd]) if self.argmax
                             else (jnp.zeros((0,)), high_action))

@@ -25,6 +25,7 @@ from flax import struct
 from hiddpg.agents import buffer
 from hiddpg.agents.block import BlockState, DDPGBlock
 from hiddpg.agents.gate import gated
+from hiddpg.agents.hindsight import Hindsight
 from hiddpg.agents.model_grad import DynamicsModel, ModelState, batched_model_gradient
 from hiddpg.configs import LevelConfig
 
@@ -48,6 +49,8 @@ class Level:
         time_scale: the model's ``Δt`` (low level: the env's control period; high level: 1).
         model_weight: λ of the model-based gradient (0 switches the term off).
         use_model: whether the model is trained.
+        hindsight: hindsight goals for the minibatches (:mod:`hiddpg.agents.hindsight`;
+            the low level only), or None.
     """
 
     config: LevelConfig
@@ -57,6 +60,7 @@ class Level:
     time_scale: float
     model_weight: float
     use_model: bool
+    hindsight: Hindsight | None = None
 
     @property
     def block(self) -> DDPGBlock:
@@ -71,8 +75,10 @@ class Level:
 
     def example_transition(self) -> dict[str, jax.Array]:
         z = lambda n: jnp.zeros((n,), jnp.float32)  # noqa: E731
-        return {"s": z(self.state_dim), "c": z(self.context_dim), "a": z(self.action_dim),
-                "r": jnp.zeros(()), "s2": z(self.state_dim), "terminated": jnp.zeros((), bool)}
+        example = {"s": z(self.state_dim), "c": z(self.context_dim), "a": z(self.action_dim),
+                   "r": jnp.zeros(()), "s2": z(self.state_dim),
+                   "terminated": jnp.zeros((), bool)}
+        return example if self.hindsight is None else dict(example, **self.hindsight.fields())
 
     def init(self, key: jax.Array) -> LevelState:
         k_block, k_model = jax.random.split(key)
@@ -117,7 +123,10 @@ class Level:
         ``next_value(block, block_state, s2)``, if given, is the critic target's value of the
         next states (instead of ``Q'(s2, μ'(s2))``); ``actor_inputs(key, inputs)``, if given,
         rewrites the actor's batch of ``[s, c]`` (:mod:`hiddpg.agents.durations`)."""
-        tr = buffer.sample(state.buffer, key, self.config.batch_size)
+        if self.hindsight is None:
+            tr = buffer.sample(state.buffer, key, self.config.batch_size)
+        else:
+            tr = self.hindsight.sample(state.buffer, key, self.config.batch_size)
         inputs = jnp.concatenate([tr["s"], tr["c"]], axis=-1)
         batch = {"obs": inputs, "action": tr["a"], "reward": tr["r"],
                  "next_obs": jnp.concatenate([tr["s2"], tr["c"]], axis=-1),

@@ -77,7 +77,8 @@ BUDGETS: dict[tuple[str, str], Budget] = {
 (``presets.CRITIC_DURATIONS``) and twice the paper's episodes [decision]: with them
 PuckTrajectory2's runs that hold both reference goals within 0.3 went from 2/15 (3000
 episodes) to 5/15 (4500) and 9/15 (6000) when evaluating every 10 episodes; the
-reproduction's own run (every 20, other random draws): 4/15, one switch in 14/15.
+reproduction's own run (every 20, other random draws): 4/15, one switch in 14/15; with the
+low level's hindsight goals and rest weight added to the sets (session 9): 12/15.
 A (scale, group) missing here falls back to the task's family (``budget_group``)."""
 
 

@@ -1,0 +1,71 @@
+"""Hindsight goals for the low level (the "future" strategy of Andrychowicz et al. 2017, HER).
+
+The low level learns to reach goals; every stretch of its experience also shows how to reach
+the states it passed through. With :class:`Hindsight`, a fraction of each minibatch drawn from
+``D_L`` has its goal replaced by the goal entries ``P s'`` of a state reached later in the same
+episode (offset drawn uniformly from the steps left in the episode, the transition's own next
+state included), and its reward recomputed for that goal. The goals the high level sets are
+few and concentrated; relabelled goals lie all along the paths the puck or the arm took, many
+of them close, so the low level sees how to finish a reach precisely [decision; the paper
+leaves the low level's learning open: "we omit the low-level learning algorithm due to its
+similarity with the basic DDPG"].
+
+Bookkeeping: transitions carry ``ep`` (the agent's episode counter) and ``left`` (steps left
+in the episode after this one, by the time limit). The buffer is written in time order per
+agent, so the transition ``k`` slots after slot ``i`` is ``k`` steps later in the same episode
+if its ``ep`` matches; where it does not (the episode ended early, by a collision, or the
+slot was not written yet), the transition keeps offset 0: its own next state as the goal.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+
+from hiddpg.agents.buffer import ReplayBuffer
+from hiddpg.envs.base import GoalSpace
+
+
+@dataclasses.dataclass(frozen=True)
+class Hindsight:
+    """Relabel a fraction of the low level's minibatch with goals reached later.
+
+    Attributes:
+        fraction: probability that a sampled transition gets a hindsight goal.
+        goal_space: which state entries a goal fixes (:class:`GoalSpace`).
+        obs_dim: size of the full goal vector.
+        reward: ``(s2, goal, a) -> r_int`` for one transition (``a`` the unit action).
+    """
+
+    fraction: float
+    goal_space: GoalSpace
+    obs_dim: int
+    reward: Callable[[jax.Array, jax.Array, jax.Array], jax.Array]
+
+    @staticmethod
+    def fields() -> dict[str, jax.Array]:
+        """The extra transition entries this needs (examples for the buffer)."""
+        return {"ep": jnp.zeros((), jnp.int32), "left": jnp.zeros((), jnp.int32)}
+
+    def sample(self, buf: ReplayBuffer, key: jax.Array, batch_size: int) -> dict[str, Any]:
+        """A uniform minibatch of ``buf`` with hindsight goals in about ``fraction`` of it."""
+        k_idx, k_use, k_off = jax.random.split(key, 3)
+        capacity = buf.capacity
+        idx = jax.random.randint(k_idx, (batch_size,), 0, jnp.maximum(buf.size, 1))
+        tr = jax.tree_util.tree_map(lambda store: store[idx], buf.data)
+        newer = jnp.mod(buf.pos - 1 - idx, capacity)  # slots written after idx
+        span = jnp.minimum(tr["left"], newer)
+        offset = jnp.floor(jax.random.uniform(k_off, (batch_size,)) * (span + 1))
+        j = jnp.mod(idx + offset.astype(jnp.int32), capacity)
+        same = buf.data["ep"][j] == tr["ep"]
+        j = jnp.where(same, j, idx)
+        reached = self.goal_space.embed(self.goal_space.select(buf.data["s2"][j]),
+                                        self.obs_dim)
+        use = jax.random.uniform(k_use, (batch_size,)) < self.fraction
+        goal = jnp.where(use[:, None], reached, tr["c"])
+        reward = jax.vmap(self.reward)(tr["s2"], reached, tr["a"])
+        return dict(tr, c=goal, r=jnp.where(use, reward, tr["r"]))
