@@ -93,10 +93,11 @@ HOLD_CHOICE = {"high_time_input": True, "hold_choice": True, "hold_explore": 0.1
 #: arrive at rest (``intrinsic_rest_weight``: the velocities count 0.3 towards the goal
 #: state ``[gx, gy, 0, 0]``). Measured on PuckTrajectory2 (15 seeds x 6000 episodes, both
 #: goals within 0.3 of the reference and one switch): the critic's durations alone 4/15
-#: (session 8; the learned low level overshot its goals, so the goals that fit the reference
-#: path were not the reference's); with hindsight 0.5: 5/15, and with the rest weight
-#: 0.1 / 0.3 / 0.5: 7 / 8 / 6 (the second goal's bias in y falls from -0.3 to 0 and turns
-#: positive); hindsight 0.8 with 0.3: 12/15 (docs/results.md, session 9). With the hold
+#: (session 8: with that low level the goals that fit the reference path were not the
+#: reference's); with hindsight 0.5: 5/15 (its low level overshoots its goals), and with the
+#: rest weight 0.1 / 0.3 / 0.5: 7 / 8 / 6 (the second goal's bias in y falls from -0.3 to 0
+#: and turns positive); hindsight 0.8 with 0.3: 12/15, and 10/15 on seeds 15-29 (chosen on
+#: seeds 0-14; docs/results.md, session 9). With the hold
 #: choice the high level held one goal on PuckTrajectory2 in 15/15 runs (-22.9 +- 0.5, 3000
 #: episodes). It needs the long budget: at the quick budget (1500 episodes) the critic's
 #: durations returned -28.6 +- 5.9 on PuckTrajectory1 over seeds 0-2 (the hold choice:

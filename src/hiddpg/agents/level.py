@@ -10,7 +10,8 @@ predicts the next state from ``(s, a)``; the value of a predicted next state ``x
 3. model step (if the model is used);
 4. soft target update.
 
-Transitions stored: ``s, c, a, r, s2, terminated`` with ``s2`` the next state.
+Transitions stored: ``s, c, a, r, s2, terminated`` with ``s2`` the next state (and ``ep``,
+``left`` with hindsight goals, :mod:`hiddpg.agents.hindsight`).
 """
 
 from __future__ import annotations
