@@ -212,6 +212,14 @@ class HIDDPGConfig:
     the same episode, with the reward recomputed (hindsight relabelling, the "future"
     strategy of HER; :mod:`hiddpg.agents.hindsight`) [decision; 0 = plain DDPG on the goals
     the high level set]."""
+    high_hindsight: float = 0.0
+    """Probability that a segment enters ``D_H`` with the goal its low level reached (the
+    goal entries of the segment's last state) in place of the goal the high level set:
+    the "hindsight action transitions" of hierarchical actor-critic (Levy et al. 2019), so
+    that the high critic learns what a goal leads to where the low level really gets
+    there. A segment that ends the episode by termination (a collision) keeps the goal set:
+    the collision is charged to the goal that led to it (relabelled, a straight path's
+    goal went unpunished) [decision; 0 = the goals as set, the paper's]."""
     low_controller: Literal["learned", "reference"] = "learned"
     """``"reference"``: the low level is not learned; the environment's own goal-reaching
     controller acts instead (the puck's LQR reference controller, spec §1.1) — a diagnostic
@@ -296,6 +304,9 @@ class HIDDPGConfig:
                              "must be a finite number >= 0")
         if not 0.0 <= self.low_hindsight <= 1.0:
             raise ValueError(f"HIDDPGConfig.low_hindsight={self.low_hindsight} must be a "
+                             "probability in [0, 1]")
+        if not 0.0 <= self.high_hindsight <= 1.0:
+            raise ValueError(f"HIDDPGConfig.high_hindsight={self.high_hindsight} must be a "
                              "probability in [0, 1]")
         if not 0.0 <= self.hold_explore <= 1.0:
             raise ValueError(f"HIDDPGConfig.hold_explore={self.hold_explore} must be a "

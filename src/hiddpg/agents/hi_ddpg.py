@@ -31,7 +31,7 @@ from flax import struct
 
 from hiddpg.agents import durations, noise
 from hiddpg.agents.block import value_terminal
-from hiddpg.agents.hindsight import Hindsight
+from hiddpg.agents.hindsight import Hindsight, reached_action
 from hiddpg.agents.level import Level, LevelState
 from hiddpg.configs import HIDDPGConfig
 from hiddpg.envs.base import Environment, affine_unit
@@ -294,6 +294,11 @@ class HIDDPG:
             gd = self.goal_dim
             context, act = ((high_action[gd:], high_action[:gd]) if self.argmax
                             else (jnp.zeros((0,)), high_action))
+            if c.high_hindsight > 0:  # the goal reached instead of the goal set, but a
+                # collision stays charged to the goal asked for
+                use = jax.random.uniform(jax.random.fold_in(keys[6], 1)) < c.high_hindsight
+                use = use & ~res.terminated
+                act = reached_action(env.goal_space, act, res.obs, use)
             high_tr = {"s": seg_obs, "c": context, "a": act, "r": f,
                        "s2": self.high_obs(res.obs, steps_left - 1, horizon),
                        "terminated": value_terminal(res, c.high.end_is_terminal,

@@ -1,4 +1,5 @@
-"""Hindsight goals for the low level (the "future" strategy of Andrychowicz et al. 2017, HER).
+"""Hindsight: goals for the low level (the "future" strategy of Andrychowicz et al. 2017, HER)
+and actions for the high level (the hindsight action transitions of Levy et al. 2019, HAC).
 
 The low level learns to reach goals; every stretch of its experience also shows how to reach
 the states it passed through. With :class:`Hindsight`, a fraction of each minibatch drawn from
@@ -10,11 +11,19 @@ of them close, so the low level sees how to finish a reach precisely [decision; 
 leaves the low level's learning open: "we omit the low-level learning algorithm due to its
 similarity with the basic DDPG"].
 
-Bookkeeping: transitions carry ``ep`` (the agent's episode counter) and ``left`` (steps left
-in the episode after this one, by the time limit). The buffer is written in time order per
-agent, so the transition ``k`` slots after slot ``i`` is ``k`` steps later in the same episode
-if its ``ep`` matches; where it does not (the episode ended early, by a collision, or the
-slot was not written yet), the transition keeps offset 0: its own next state as the goal.
+For the high level, :func:`reached_action` stores a segment in ``D_H`` as if its goal had been
+the one its low level reached (the goal entries of the segment's last state): the high critic
+then learns what a goal leads to where the low level really gets there, and the cost of an
+overshoot that still arrives is charged to where it arrived; HI-DDPG keeps the goal set for
+a segment that ended the episode by a collision, so that the goals that lead into the obstacle
+stay charged with it [decision].
+
+Bookkeeping (low level): transitions carry ``ep`` (the agent's episode counter) and ``left``
+(steps left in the episode after this one, by the time limit). The buffer is written in time
+order per agent, so the transition ``k`` slots after slot ``i`` is ``k`` steps later in the
+same episode if its ``ep`` matches; where it does not (the episode ended early, by a
+collision, or the slot was not written yet), the transition keeps offset 0: its own next
+state as the goal.
 """
 
 from __future__ import annotations
@@ -69,3 +78,13 @@ class Hindsight:
         goal = jnp.where(use[:, None], reached, tr["c"])
         reward = jax.vmap(self.reward)(tr["s2"], reached, tr["a"])
         return dict(tr, c=goal, r=jnp.where(use, reward, tr["r"]))
+
+
+def reached_action(goal_space: GoalSpace, action: jax.Array, last_obs: jax.Array,
+                   use: jax.Array) -> jax.Array:
+    """The high-level unit action with its goal entries (the first ``goal_space.dim``)
+    replaced, where ``use``, by the goal entries of ``last_obs``, unit-scaled and clipped to
+    the box; the other entries (the duration) are kept."""
+    reached = jnp.clip(goal_space.unscale(goal_space.select(last_obs)), -1.0, 1.0)
+    gd = goal_space.dim
+    return action.at[:gd].set(jnp.where(use, reached, action[:gd]))
