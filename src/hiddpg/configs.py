@@ -154,6 +154,11 @@ class LevelConfig:
     action_l2: float = 0.0
     """Penalty weight on the squared unit action in the actor's objective (Andrychowicz et
     al. 2017) [decision; 0 = the paper's plain DPG]."""
+    huber_delta: float = 0.0
+    """``δ > 0``: the level's critic minimises the Huber loss of its TD error (squared within
+    ``δ``, linear beyond), so that rare large errors — the arm's collisions, reward −100 —
+    pull its values less than the many small ones near the target [decision; 0 = the
+    squared error, DDPG's]."""
     end_is_terminal: bool = False
     """No bootstrap at the end of any episode for this level's critic (as
     :attr:`DDPGConfig.end_is_terminal`; the presets set it on the high level of the
@@ -169,6 +174,9 @@ class LevelConfig:
         _positive(self, "lr", "batch_size", "buffer_size")
         _unit(self, "gamma", "tau")
         _buffer(self)
+        if not (self.huber_delta >= 0 and math.isfinite(self.huber_delta)):
+            raise ValueError(f"LevelConfig.huber_delta={self.huber_delta} must be a finite "
+                             "number >= 0 (0: the squared TD error)")
 
 
 def _high_default() -> LevelConfig:

@@ -191,3 +191,37 @@ def test_update_under_vmap_equals_separate_updates():
         jax.tree_util.tree_map(lambda a, b: np.testing.assert_allclose(a, b, rtol=1e-6,
                                                                        atol=1e-7), single, got)
         np.testing.assert_allclose(m["critic_loss"], metrics["critic_loss"][i], rtol=1e-6)
+
+
+def test_huber_critic_loss_is_squared_near_the_target_and_linear_beyond():
+    """``huber_delta``: the reported loss is the Huber loss of the TD errors, and a fit to
+    targets with one outlier (the arm's collision, -100 among returns near -1) ends nearer
+    the many than the squared error's fit does (the median-like pull, not the mean's)."""
+    block = _block(huber_delta=1.0)
+    state = _perturbed(block)
+    batch = _batch(terminated=True)  # targets = rewards
+    err = batch["reward"] - block.q(state.critic, batch["obs"], batch["action"])
+    a = jnp.abs(err)
+    expected = jnp.mean(jnp.where(a <= 1.0, 0.5 * err**2, a - 0.5))
+    _, metrics = jax.jit(block.critic_update)(state, batch)
+    np.testing.assert_allclose(metrics["critic_loss"], expected, rtol=1e-5)
+
+    # one observation, 31 targets of -1 and one of -100: the squared error fits the mean
+    # (about -4.1), the Huber loss about -1 - 1/31 (a unit pull per outlier)
+    same = {**batch, "obs": jnp.zeros((B, OBS)), "action": jnp.zeros((B, ACT)),
+            "reward": jnp.full((B,), -1.0).at[0].set(-100.0)}
+    fits = {}
+    for delta in (0.0, 1.0):
+        blk = _block(huber_delta=delta, critic_lr=3e-2)
+        s = blk.init(jax.random.PRNGKey(0))
+        s = jax.lax.fori_loop(0, 2000, lambda _, s: blk.critic_update(s, same)[0], s)
+        fits[delta] = float(blk.q(s.critic, jnp.zeros(OBS), jnp.zeros(ACT)))
+    assert abs(fits[0.0] - (-1.0 - 99.0 / B)) < 0.2, fits
+    assert abs(fits[1.0] - (-1.0 - 1.0 / (B - 1))) < 0.2, fits
+
+
+def test_huber_delta_must_not_be_negative():
+    from hiddpg.configs import LevelConfig
+
+    with pytest.raises(ValueError, match=r"huber_delta=-1.0 must be a finite number >= 0"):
+        LevelConfig(huber_delta=-1.0)

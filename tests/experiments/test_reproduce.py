@@ -252,8 +252,9 @@ def test_bar_history_counts_each_snapshot():
 
 
 def test_paper_scale_trajectory_runs_get_the_critic_durations_and_6000_episodes(tmp_path):
-    """Paper scale: HI-DDPG on PuckTrajectory1-3 with ``CRITIC_DURATIONS`` for 6000 episodes;
-    the other tasks, the other algorithms and the quick scale keep the presets' budgets."""
+    """Paper scale: HI-DDPG on PuckTrajectory1-3 with ``CRITIC_DURATIONS`` for 6000 episodes,
+    on ArmObstacle with ``ARM_HIGH_CRITIC``; the other tasks, the other algorithms and the
+    quick scale keep the presets' budgets."""
     from hiddpg.experiments.common import budget_table
 
     paper, quick = Context(tmp_path, scale="paper"), Context(tmp_path, scale="quick")
@@ -268,6 +269,13 @@ def test_paper_scale_trajectory_runs_get_the_critic_durations_and_6000_episodes(
     for task in ("PuckObstacle", "ArmObstacle"):
         cfg = paper.config("hi-ddpg", task)
         assert (cfg.episodes, cfg.agent.duration_choice) == (3000, "actor")
+    # ArmObstacle: hindsight actions and the Huber high critic for both HI-DDPG variants only
+    for algo in ("hi-ddpg", "hi-ddpg-wo-model"):
+        agent = paper.config(algo, "ArmObstacle").agent
+        assert (agent.high_hindsight, agent.high.huber_delta, agent.low.huber_delta) == (
+            1.0, 10.0, 0.0)
+        assert quick.config(algo, "ArmObstacle").agent.high.huber_delta == 0.0
+        assert paper.config(algo, "PuckObstacle").agent.high_hindsight == 0.0
     row = [r for r in budget_table().splitlines() if "PuckTrajectory1-3" in r]
     assert len(row) == 1 and "duration_choice=argmax" in row[0]
     assert report.parse_numbers(row[0])[2:4] == [15, 6000]  # after PuckTrajectory1-3

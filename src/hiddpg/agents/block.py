@@ -95,6 +95,9 @@ class DDPGBlock:
         action_l2: weight of a penalty ``action_l2 · |μ(s)|²`` on the unit action in the actor's
             objective (as in Andrychowicz et al. 2017's DDPG), keeping ``tanh`` out of
             saturation [decision; 0 = plain DDPG].
+        huber_delta: the critic's loss is the Huber loss with this ``δ`` (squared within ``δ``
+            of the target, linear beyond) instead of the squared TD error [decision; 0 = the
+            squared error, DDPG's].
     """
 
     obs_dim: int
@@ -106,6 +109,7 @@ class DDPGBlock:
     tau: float
     invert_gradients: bool = False
     action_l2: float = 0.0
+    huber_delta: float = 0.0
     actor_net: Actor = field(init=False, repr=False, compare=False)
     critic_net: Critic = field(init=False, repr=False, compare=False)
     actor_tx: optax.GradientTransformation = field(init=False, repr=False, compare=False)
@@ -173,13 +177,15 @@ class DDPGBlock:
         return jax.lax.stop_gradient(batch["reward"] + discount * not_done * next_q)
 
     def critic_update(self, state: BlockState, batch: Batch) -> tuple[BlockState, dict]:
-        """One Adam step on the mean squared TD error. Batch keys: ``obs, action, reward,
-        next_obs, terminated`` (+ optional ``discount``). Metrics: ``critic_loss`` (before the
-        step), ``q_mean``."""
+        """One Adam step on the mean squared TD error (the Huber loss with ``huber_delta``).
+        Batch keys: ``obs, action, reward, next_obs, terminated`` (+ optional ``discount``).
+        Metrics: ``critic_loss`` (before the step), ``q_mean``."""
         y = self.target(state, batch)
 
         def loss_fn(critic: Any) -> tuple[jax.Array, jax.Array]:
             q = self.q(critic, batch["obs"], batch["action"])
+            if self.huber_delta > 0:
+                return jnp.mean(optax.huber_loss(q, y, delta=self.huber_delta)), q
             return jnp.mean((y - q) ** 2), q
 
         (loss, q), grads = jax.value_and_grad(loss_fn, has_aux=True)(state.critic)

@@ -67,7 +67,8 @@ class Level:
     def block(self) -> DDPGBlock:
         c = self.config
         return DDPGBlock(self.state_dim + self.context_dim, self.action_dim, tuple(c.hidden),
-                         c.lr, c.lr, c.gamma, c.tau, c.invert_gradients, c.action_l2)
+                         c.lr, c.lr, c.gamma, c.tau, c.invert_gradients, c.action_l2,
+                         c.huber_delta)
 
     @property
     def model(self) -> DynamicsModel:
