@@ -210,12 +210,13 @@ def test_huber_critic_loss_is_squared_near_the_target_and_linear_beyond():
     # (about -4.1), the Huber loss about -1 - 1/31 (a unit pull per outlier)
     same = {**batch, "obs": jnp.zeros((B, OBS)), "action": jnp.zeros((B, ACT)),
             "reward": jnp.full((B,), -1.0).at[0].set(-100.0)}
-    fits = {}
-    for delta in (0.0, 1.0):
+    def fit(delta: float) -> float:
         blk = _block(huber_delta=delta, critic_lr=3e-2)
         s = blk.init(jax.random.PRNGKey(0))
         s = jax.lax.fori_loop(0, 2000, lambda _, s: blk.critic_update(s, same)[0], s)
-        fits[delta] = float(blk.q(s.critic, jnp.zeros(OBS), jnp.zeros(ACT)))
+        return float(blk.q(s.critic, jnp.zeros(OBS), jnp.zeros(ACT)))
+
+    fits = {delta: fit(delta) for delta in (0.0, 1.0)}
     assert abs(fits[0.0] - (-1.0 - 99.0 / B)) < 0.2, fits
     assert abs(fits[1.0] - (-1.0 - 1.0 / (B - 1))) < 0.2, fits
 
