@@ -120,7 +120,8 @@ CRITIC_DURATIONS = (
 #: within 3 cm is worth only 0.2-0.5 of return there. Measured (15 seeds x 3000 episodes,
 #: quick networks): the presets 6/15 successes with 2 collisions (session 4); hindsight
 #: actions alone 3/15, no collision, -6.2 +- 1.0; with the Huber critic **11/15, no
-#: collision, -4.9 +- 0.9** (chosen on seeds 0-7; docs/results.md, session 10). The Huber
+#: collision, -4.9 +- 0.9** (chosen on seeds 0-7), 5/15 with one collision on seeds 15-29:
+#: 16/30 against the presets' 8/30 (docs/results.md, session 10). The Huber
 #: loss at δ = 1 (both levels, seeds 0-7) was as precise but lost the collisions' deterrent:
 #: 4 of 8 runs took the straight path into the obstacle.
 ARM_HIGH_CRITIC = ("agent.high_hindsight=1", "agent.high.huber_delta=10")
