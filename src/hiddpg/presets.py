@@ -110,7 +110,6 @@ CRITIC_DURATIONS = (
 )
 
 
-
 #: HI-DDPG's setting for ArmObstacle at the paper-scale budget of ``hiddpg reproduce``, as
 #: ``--set`` overrides [decision]: every segment enters ``D_H`` with the goal its low level
 #: reached (a collision keeps the goal set; ``high_hindsight``, HAC's hindsight actions) and
@@ -125,6 +124,7 @@ CRITIC_DURATIONS = (
 #: loss at δ = 1 (both levels, seeds 0-7) was as precise but lost the collisions' deterrent:
 #: 4 of 8 runs took the straight path into the obstacle.
 ARM_HIGH_CRITIC = ("agent.high_hindsight=1", "agent.high.huber_delta=10")
+
 
 def _paper_agent(algo: str, task: str) -> Any:
     family, name = task_family(task), task_name(task)

@@ -60,7 +60,7 @@ def test_init_copies_online_into_target_networks():
 
 
 @pytest.mark.parametrize("bad", [dict(hidden=()), dict(gamma=1.5), dict(tau=-0.1),
-                                 dict(obs_dim=0)])
+                                 dict(obs_dim=0), dict(huber_delta=-1.0)])
 def test_invalid_block_names_the_field(bad):
     with pytest.raises(ValueError, match=next(iter(bad))):
         _block(**bad)
@@ -210,6 +210,7 @@ def test_huber_critic_loss_is_squared_near_the_target_and_linear_beyond():
     # (about -4.1), the Huber loss about -1 - 1/31 (a unit pull per outlier)
     same = {**batch, "obs": jnp.zeros((B, OBS)), "action": jnp.zeros((B, ACT)),
             "reward": jnp.full((B,), -1.0).at[0].set(-100.0)}
+
     def fit(delta: float) -> float:
         blk = _block(huber_delta=delta, critic_lr=3e-2)
         s = blk.init(jax.random.PRNGKey(0))

@@ -124,7 +124,7 @@ class DDPGBlock:
         if not hidden or any(not isinstance(n, int) or n <= 0 for n in hidden):
             raise ValueError(f"DDPGBlock.hidden={self.hidden!r} must be positive ints")
         for name, lo, hi in (("actor_lr", 0, None), ("critic_lr", 0, None),
-                             ("gamma", 0, 1), ("tau", 0, 1)):
+                             ("gamma", 0, 1), ("tau", 0, 1), ("huber_delta", 0, None)):
             v = getattr(self, name)
             if not (v >= lo and (hi is None or v <= hi)):
                 raise ValueError(f"DDPGBlock.{name}={v!r} out of range [{lo}, {hi or 'inf'}]")
