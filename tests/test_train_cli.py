@@ -122,6 +122,17 @@ def test_resume_of_finished_run(reference, tmp_path, capsys):
     assert files(tmp_path / "d") == files(reference)
 
 
+def test_extending_a_run_whose_last_chunk_was_short(tmp_path):
+    """30 episodes in chunks of 20 end on a short chunk (20 + 10); ``--resume --episodes 40``
+    runs 10 more to reach the 40-episode config's boundary and equals a 40-episode run."""
+    chunks = ["--set", "chunk_episodes=20"]
+    assert train(tmp_path, "short", *chunks, "--set", "episodes=30") == 0
+    assert train_cmd.main(["--resume", str(tmp_path / "short"), "--episodes", "40"]) == 0
+    assert train(tmp_path, "long", *chunks, "--set", "episodes=40") == 0
+    assert files(tmp_path / "short") == files(tmp_path / "long")
+    assert runs.Run.open(tmp_path / "short").progress()["episodes"] == 40
+
+
 def test_seed_order_does_not_matter(reference, tmp_path):
     """Same batch size, seeds permuted: every seed's rows are bitwise those of the reference."""
     assert train(tmp_path, "perm", seeds="2,0,1") == 0

@@ -21,6 +21,10 @@ def test_chunk_sizes_fall_on_evaluation_boundaries(trainer):
     assert trainer.chunk_sizes(20) == [5]
     with pytest.raises(ValueError, match="chunk boundary"):
         trainer.chunk_sizes(7)
+    # 15 is no boundary but a multiple of eval_every (a shorter run extended): on to the next
+    assert trainer.chunk_sizes(15) == [5, 5]
+    with pytest.raises(ValueError, match="30 episodes done"):
+        trainer.chunk_sizes(30)
     odd = Trainer(make_config("ddpg", "PuckTrajectory1", "quick",
                               TINY + ["episodes=23", "chunk_episodes=12"]))
     assert odd.chunk_sizes() == [10, 10, 3]

@@ -158,9 +158,16 @@ class Trainer:
         bounds = [0]
         for n in sizes:
             bounds.append(bounds[-1] + n)
-        if done not in bounds:
-            raise ValueError(f"{done} episodes done is not a chunk boundary of this config")
-        return sizes[bounds.index(done):]
+        if done in bounds:
+            return sizes[bounds.index(done):]
+        if done % cfg.eval_every or done > cfg.episodes:
+            raise ValueError(f"{done} episodes done is not a chunk boundary of this config "
+                             f"(nor a multiple of eval_every={cfg.eval_every} within its "
+                             f"{cfg.episodes} episodes)")
+        # A finished run extended with ``--resume --episodes N``: its last chunk ended where
+        # this config has none. Run up to the next boundary, then this config's chunks.
+        nxt = next(b for b in bounds if b > done)
+        return [nxt - done] + sizes[bounds.index(nxt):]
 
 
 def make_train(config: TrainConfig):
