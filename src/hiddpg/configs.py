@@ -159,6 +159,12 @@ class LevelConfig:
     ``δ``, linear beyond), so that rare large errors — the arm's collisions, reward −100 —
     pull its values less than the many small ones near the target [decision; 0 = the
     squared error, DDPG's]."""
+    terminal_head: bool = False
+    """The critic learns the rewards of the steps that end the episode (the arm's collision,
+    −100) in a head of its own and the rest in another, ``Q = Q_run + Q_term``; ``huber_delta``
+    then applies to ``Q_run`` only, so a robust fit of the small segment returns no longer
+    blurs the collisions' cost (:attr:`DDPGBlock.terminal_head`). HI-DDPG's high level only
+    [decision; False = one value, the paper's]."""
     end_is_terminal: bool = False
     """No bootstrap at the end of any episode for this level's critic (as
     :attr:`DDPGConfig.end_is_terminal`; the presets set it on the high level of the
@@ -325,6 +331,13 @@ class HIDDPGConfig:
         if not 0.0 <= self.duration_explore <= 1.0:
             raise ValueError(f"HIDDPGConfig.duration_explore={self.duration_explore} must be "
                              "a probability in [0, 1]")
+        if self.low.terminal_head:
+            raise ValueError("HIDDPGConfig.low.terminal_head=True: only the high level's "
+                             "critic can split off the terminal rewards (the low level's "
+                             "reward is intrinsic); set high.terminal_head instead")
+        if self.high.terminal_head and self.duration_choice != "actor":
+            raise ValueError(f"HIDDPGConfig.high.terminal_head=True needs duration_choice="
+                             f"'actor', not {self.duration_choice!r}")
         if self.duration_choice == "argmax":
             clash = [f"{k}={getattr(self, k)}" for k, bad in (
                 ("high_time_input", not self.high_time_input),

@@ -98,6 +98,12 @@ class DDPGBlock:
         huber_delta: the critic's loss is the Huber loss with this ``δ`` (squared within ``δ``
             of the target, linear beyond) instead of the squared TD error [decision; 0 = the
             squared error, DDPG's].
+        terminal_head: the critic has two heads, ``Q = Q_run + Q_term``: ``Q_term`` learns
+            the rewards of terminating steps (the arm's collision, −100), ``Q_run`` all the
+            others; rewards come in pairs ``(r_run, r_term)`` and both heads bootstrap on their
+            own head of ``Q'(s', μ'(s'))``. ``huber_delta`` applies to ``Q_run`` only; ``Q_term``
+            keeps the squared error, whose fit is the expected terminal reward (probability ×
+            penalty) [decision; False = one value, DDPG's].
     """
 
     obs_dim: int
@@ -110,6 +116,7 @@ class DDPGBlock:
     invert_gradients: bool = False
     action_l2: float = 0.0
     huber_delta: float = 0.0
+    terminal_head: bool = False
     actor_net: Actor = field(init=False, repr=False, compare=False)
     critic_net: Critic = field(init=False, repr=False, compare=False)
     actor_tx: optax.GradientTransformation = field(init=False, repr=False, compare=False)
@@ -131,7 +138,7 @@ class DDPGBlock:
         setattr_ = object.__setattr__
         setattr_(self, "hidden", hidden)
         setattr_(self, "actor_net", Actor(hidden, self.action_dim))
-        setattr_(self, "critic_net", Critic(hidden))
+        setattr_(self, "critic_net", Critic(hidden, heads=2 if self.terminal_head else 1))
         setattr_(self, "actor_tx", _adam(self.actor_lr))
         setattr_(self, "critic_tx", _adam(self.critic_lr))
 
@@ -159,34 +166,55 @@ class DDPGBlock:
         return self.mu(state.actor, obs)
 
     def q(self, critic_params: Any, obs: jax.Array, action: jax.Array) -> jax.Array:
-        """``Q(s, a|θ^Q)``: shape ``obs.shape[:-1]``."""
+        """``Q(s, a|θ^Q)``: shape ``obs.shape[:-1]`` (with ``terminal_head``, the heads' sum)."""
+        q = self.critic_net.apply(critic_params, obs, action)
+        return jnp.sum(q, axis=-1) if self.terminal_head else q
+
+    def q_heads(self, critic_params: Any, obs: jax.Array, action: jax.Array) -> jax.Array:
+        """The critic's raw output: ``Q`` (shape ``obs.shape[:-1]``), or with
+        ``terminal_head`` the pair ``(Q_run, Q_term)`` on a last axis of 2."""
         return self.critic_net.apply(critic_params, obs, action)
 
     # -- critic (eq. 3) -----------------------------------------------------------------------
     def target(self, state: BlockState, batch: Batch) -> jax.Array:
         """``y = r + γ (1 − terminated) Q'(s', μ'(s'))``; ``batch["discount"]`` (if present)
         replaces ``γ`` per sample, ``batch["next_q"]`` (if present) the next state's value
-        ``Q'(s', μ'(s'))``. No gradient flows through ``y``."""
+        ``Q'(s', μ'(s'))``. No gradient flows through ``y``. With ``terminal_head`` the
+        rewards, the values and ``y`` are pairs ``(run, term)`` on a last axis."""
         next_obs = batch["next_obs"]
         if "next_q" in batch:
+            if self.terminal_head:
+                raise ValueError("DDPGBlock.terminal_head takes no batch['next_q'] (a single "
+                                 "value per sample); bootstrap on the target critic")
             next_q = batch["next_q"]
         else:
-            next_q = self.q(state.target_critic, next_obs, self.mu(state.target_actor, next_obs))
+            next_q = self.q_heads(state.target_critic, next_obs,
+                                  self.mu(state.target_actor, next_obs))
         discount = batch["discount"] if "discount" in batch else self.gamma
         not_done = 1.0 - jnp.asarray(batch["terminated"], jnp.float32)
-        return jax.lax.stop_gradient(batch["reward"] + discount * not_done * next_q)
+        scale = discount * not_done
+        if self.terminal_head:
+            scale = jnp.asarray(scale)[..., None]
+        return jax.lax.stop_gradient(batch["reward"] + scale * next_q)
 
     def critic_update(self, state: BlockState, batch: Batch) -> tuple[BlockState, dict]:
-        """One Adam step on the mean squared TD error (the Huber loss with ``huber_delta``).
+        """One Adam step on the mean squared TD error (the Huber loss with ``huber_delta``; with
+        ``terminal_head`` the sum of both heads' losses).
         Batch keys: ``obs, action, reward, next_obs, terminated`` (+ optional ``discount``).
         Metrics: ``critic_loss`` (before the step), ``q_mean``."""
         y = self.target(state, batch)
 
         def loss_fn(critic: Any) -> tuple[jax.Array, jax.Array]:
-            q = self.q(critic, batch["obs"], batch["action"])
+            q = self.q_heads(critic, batch["obs"], batch["action"])
+            q_run, y_run = (q[..., 0], y[..., 0]) if self.terminal_head else (q, y)
             if self.huber_delta > 0:
-                return jnp.mean(optax.huber_loss(q, y, delta=self.huber_delta)), q
-            return jnp.mean((y - q) ** 2), q
+                loss = jnp.mean(optax.huber_loss(q_run, y_run, delta=self.huber_delta))
+            else:
+                loss = jnp.mean((y_run - q_run) ** 2)
+            if self.terminal_head:
+                loss = loss + jnp.mean((y[..., 1] - q[..., 1]) ** 2)
+                q = jnp.sum(q, axis=-1)
+            return loss, q
 
         (loss, q), grads = jax.value_and_grad(loss_fn, has_aux=True)(state.critic)
         updates, opt = self.critic_tx.update(grads, state.critic_opt, state.critic)

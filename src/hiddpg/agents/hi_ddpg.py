@@ -299,7 +299,11 @@ class HIDDPG:
                 use = jax.random.uniform(jax.random.fold_in(keys[6], 1)) < c.high_hindsight
                 use = use & ~res.terminated
                 act = reached_action(env.goal_space, act, res.obs, use)
-            high_tr = {"s": seg_obs, "c": context, "a": act, "r": f,
+            r_high = f
+            if c.high.terminal_head:  # (r_run, r_term): the terminating step's reward apart
+                r_term = jnp.where(res.terminated, r_env, 0.0)
+                r_high = jnp.stack([f - r_term, r_term])
+            high_tr = {"s": seg_obs, "c": context, "a": act, "r": r_high,
                        "s2": self.high_obs(res.obs, steps_left - 1, horizon),
                        "terminated": value_terminal(res, c.high.end_is_terminal,
                                                     c.high.env_terminal)}

@@ -11,7 +11,8 @@ predicts the next state from ``(s, a)``; the value of a predicted next state ``x
 4. soft target update.
 
 Transitions stored: ``s, c, a, r, s2, terminated`` with ``s2`` the next state (and ``ep``,
-``left`` with hindsight goals, :mod:`hiddpg.agents.hindsight`).
+``left`` with hindsight goals, :mod:`hiddpg.agents.hindsight`); with ``terminal_head`` the
+reward ``r`` is the pair ``(r_run, r_term)`` (:attr:`DDPGBlock.terminal_head`).
 """
 
 from __future__ import annotations
@@ -68,7 +69,7 @@ class Level:
         c = self.config
         return DDPGBlock(self.state_dim + self.context_dim, self.action_dim, tuple(c.hidden),
                          c.lr, c.lr, c.gamma, c.tau, c.invert_gradients, c.action_l2,
-                         c.huber_delta)
+                         c.huber_delta, c.terminal_head)
 
     @property
     def model(self) -> DynamicsModel:
@@ -78,7 +79,8 @@ class Level:
     def example_transition(self) -> dict[str, jax.Array]:
         z = lambda n: jnp.zeros((n,), jnp.float32)  # noqa: E731
         example = {"s": z(self.state_dim), "c": z(self.context_dim), "a": z(self.action_dim),
-                   "r": jnp.zeros(()), "s2": z(self.state_dim),
+                   "r": z(2) if self.config.terminal_head else jnp.zeros(()),
+                   "s2": z(self.state_dim),
                    "terminated": jnp.zeros((), bool)}
         return example if self.hindsight is None else dict(example, **self.hindsight.fields())
 
