@@ -32,6 +32,7 @@ from flax import struct
 from hiddpg.agents import durations, noise
 from hiddpg.agents.block import value_terminal
 from hiddpg.agents.hindsight import Hindsight, reached_action
+from hiddpg.agents.hold import hold
 from hiddpg.agents.level import Level, LevelState
 from hiddpg.configs import HIDDPGConfig
 from hiddpg.envs.base import Environment, affine_unit
@@ -120,23 +121,6 @@ class HIDDPG:
             return obs
         return jnp.concatenate([obs, (steps_left / horizon)[None].astype(obs.dtype)])
 
-    def _hold(self, agent: HIDDPGState, hobs: jax.Array, action: jax.Array,
-              steps_left: jax.Array, key: jax.Array, train: bool, free: jax.Array) -> jax.Array:
-        """``action`` or, where chosen, its goal held to the episode's end (``T`` = the steps
-        left, at most ``T_max``): with ``hold_choice`` when the critic values that higher,
-        with ``hold_explore`` (training) at random; only where ``free`` (not a random phase)."""
-        c = self.config
-        hold_t = jnp.minimum(steps_left, c.duration_max).astype(jnp.float32)
-        hold = action.at[self.goal_dim].set(self.duration_unit(hold_t))
-        use = jnp.array(False)
-        if c.hold_choice:
-            critic = agent.high.block.critic
-            q = lambda a: self.high.block.q(critic, hobs, a)  # noqa: E731
-            use = q(hold) > q(action)
-        if train and c.hold_explore > 0:
-            use = use | (jax.random.uniform(jax.random.fold_in(key, 7)) < c.hold_explore)
-        return jnp.where(use & free, hold, action)
-
     def high_q(self, state: HIDDPGState, hobs: jax.Array, action: jax.Array) -> jax.Array:
         """The high critic's value of the unit action ``(g, T)`` at input ``hobs``."""
         block, critic = self.high.block, state.high.block.critic
@@ -163,8 +147,8 @@ class HIDDPG:
         action = self._actor_action(state, hobs, steps_left)
         if not self.config.hold_choice:
             return action
-        return self._hold(state, hobs, action, steps_left, jax.random.PRNGKey(0), False,
-                          jnp.array(True))
+        return hold(self, state, hobs, action, steps_left, jax.random.PRNGKey(0), False,
+                    jnp.array(True))
 
     def env_action(self, unit: jax.Array) -> jax.Array:
         return affine_unit(unit, self.env.action_low, self.env.action_high)
@@ -250,8 +234,8 @@ class HIDDPG:
             high_action = jnp.where(random_phase | pretrain, uniform,
                                     jnp.clip(high_action + eps, -1.0, 1.0))
         if c.hold_choice or (train and c.hold_explore > 0):
-            high_action = self._hold(agent, hobs, high_action, steps_left, keys[1], train,
-                                     ~(random_phase | pretrain))
+            high_action = hold(self, agent, hobs, high_action, steps_left, keys[1], train,
+                               ~(random_phase | pretrain))
         if first is not None:  # a given first high-level action (evaluate's probe)
             high_action = jnp.where(carry.n_goals == 0, first, high_action)
         high_action = jnp.where(switch, high_action, carry.high_action)
