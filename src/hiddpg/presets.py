@@ -119,10 +119,11 @@ CRITIC_DURATIONS = (
 #: within 3 cm is worth only 0.2-0.5 of return there. Measured (15 seeds x 3000 episodes,
 #: quick networks): the presets 6/15 successes with 2 collisions (session 4); hindsight
 #: actions alone 3/15, no collision, -6.2 +- 1.0; with the Huber critic **11/15, no
-#: collision, -4.9 +- 0.9** (chosen on seeds 0-7), 5/15 with one collision on seeds 15-29:
-#: 16/30 against the presets' 8/30 (docs/results.md, session 10). The Huber
-#: loss at δ = 1 (both levels, seeds 0-7) was as precise but lost the collisions' deterrent:
-#: 4 of 8 runs took the straight path into the obstacle.
+#: collision, -4.9 +- 0.9** (chosen on seeds 0-7), 5/15 with one collision on seeds 15-29,
+#: 8/15 with none on seeds 30-44: 24/45 against the presets' 8/30 (docs/results.md, sessions
+#: 10-11). A smaller δ is more precise but loses the collisions' deterrent: δ = 1 (both
+#: levels, seeds 0-7) 4 of 8 runs took the straight path into the obstacle; δ = 3 27/45 with
+#: 10 collisions (not significantly better, p = 0.34).
 ARM_HIGH_CRITIC = ("agent.high_hindsight=1", "agent.high.huber_delta=10")
 
 
