@@ -1,0 +1,145 @@
+"""The configs of one DDPG actor-critic: its exploration noise (:class:`NoiseConfig`), flat
+DDPG (:class:`DDPGConfig`) and one level of HI-DDPG (:class:`LevelConfig`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+from hiddpg.configs.checks import buffer, hidden, positive, unit
+
+
+@dataclass(frozen=True)
+class NoiseConfig:
+    """Exploration noise added to an actor's output in its normalised ([-1, 1]) box."""
+
+    kind: Literal["ou", "gaussian"] = "ou"
+    """Ornstein-Uhlenbeck (reset every episode) [paper] or i.i.d. Gaussian [decision]."""
+    theta: float = 0.05
+    """OU mean reversion α [paper]."""
+    sigma: float = 0.1
+    """Noise scale: 0.1 on the puck, 0.15 on the arm [paper]."""
+    final_sigma: float = -1.0
+    """Noise scale reached after ``decay_episodes`` episodes, linearly from ``sigma``; negative
+    keeps ``sigma`` throughout [paper: constant]."""
+    decay_episodes: int = 1
+    """Episodes over which the scale goes from ``sigma`` to ``final_sigma``."""
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("ou", "gaussian"):
+            raise ValueError(f"NoiseConfig.kind={self.kind!r} must be 'ou' or 'gaussian'")
+        unit(self, "theta")
+        if not self.sigma >= 0:
+            raise ValueError(f"NoiseConfig.sigma={self.sigma!r} must be >= 0")
+        if not math.isfinite(self.final_sigma):
+            raise ValueError(f"NoiseConfig.final_sigma={self.final_sigma!r} must be a number: "
+                             ">= 0 to decay to it, negative for a constant sigma")
+        if self.decay_episodes < 1:
+            raise ValueError(f"NoiseConfig.decay_episodes={self.decay_episodes!r} must be >= 1")
+
+    @property
+    def decays(self) -> bool:
+        return self.final_sigma >= 0
+
+
+@dataclass(frozen=True)
+class DDPGConfig:
+    """Flat DDPG (the paper's "plain DDPG"), built on the shared DDPG block (spec §1)."""
+
+    hidden: tuple[int, ...] = (300, 300)
+    """Hidden layer sizes of actor and critic; arm tasks add a third 300 layer [paper]."""
+    actor_lr: float = 1e-4
+    """Adam learning rate of the actor [decision: DDPG paper]."""
+    critic_lr: float = 1e-3
+    """Adam learning rate of the critic [decision: DDPG paper]."""
+    gamma: float = 0.99
+    """Discount [decision]."""
+    tau: float = 0.001
+    """Polyak rate of the target networks [decision: DDPG paper]."""
+    batch_size: int = 64
+    """Minibatch size [decision: DDPG paper]."""
+    buffer_size: int = 100_000
+    """Replay capacity [decision]."""
+    learning_starts: int = 1000
+    """Environment steps of uniformly random actions before learning starts [decision]."""
+    noise: NoiseConfig = field(default_factory=NoiseConfig)
+    invert_gradients: bool = False
+    """Damp the actor's action gradient near the bounds of its box (Hausknecht & Stone 2016)
+    [decision; False = the paper's plain DPG]."""
+    action_l2: float = 0.0
+    """Penalty weight on the squared unit action in the actor's objective (Andrychowicz et
+    al. 2017) [decision; 0 = the paper's plain DPG]."""
+    lr_decay: float = 1.0
+    """Learning rates are multiplied by this every ``lr_decay_every`` episodes (1 = off)."""
+    lr_decay_every: int = 50
+    end_is_terminal: bool = False
+    """Treat the end of every episode as terminal in the value targets: no bootstrap at the time
+    limit either (the paper's arm rule, §III-B: "the target action-state value for the final
+    step in each episode was assigned with the reward of the final step"). False: time-limit
+    ends bootstrap (spec §3 decision). The presets set it on tasks that terminate (obstacles):
+    there, bootstrapping an infinite-horizon value at the time limit makes a collision look
+    cheaper than going on (docs/algorithms.md)."""
+
+    def __post_init__(self) -> None:
+        hidden(self)
+        positive(self, "actor_lr", "critic_lr", "batch_size", "buffer_size", "lr_decay_every")
+        unit(self, "gamma", "tau", "lr_decay")
+        if self.learning_starts < 0:
+            raise ValueError(f"DDPGConfig.learning_starts={self.learning_starts} must be >= 0")
+        buffer(self)
+
+
+@dataclass(frozen=True)
+class LevelConfig:
+    """One level (high or low) of HI-DDPG: a DDPG block plus its dynamics model."""
+
+    hidden: tuple[int, ...] = (300, 300)
+    """Hidden sizes of actor, critic and model [paper]."""
+    lr: float = 2e-4
+    """Adam learning rate shared by the level's actor, critic and model [paper]."""
+    gamma: float = 0.95
+    """Discount: 0.99 high level, 0.95 low level [paper]."""
+    tau: float = 0.001
+    """Polyak rate of the target networks [decision]."""
+    batch_size: int = 64
+    """Minibatch size [decision]."""
+    buffer_size: int = 10_000
+    """Replay capacity: puck D_H = 1e5, D_L = 1e4; arm 1e6 / 1e5 [paper]."""
+    noise: NoiseConfig = field(default_factory=NoiseConfig)
+    """OU noise on the level's normalised outputs [paper]."""
+    invert_gradients: bool = False
+    """Damp the actor's action gradient near the bounds of its box so that ``tanh`` does not
+    saturate (Hausknecht & Stone 2016) [decision; False = the paper's plain DPG]."""
+    action_l2: float = 0.0
+    """Penalty weight on the squared unit action in the actor's objective (Andrychowicz et
+    al. 2017) [decision; 0 = the paper's plain DPG]."""
+    huber_delta: float = 0.0
+    """``δ > 0``: the level's critic minimises the Huber loss of its TD error (squared within
+    ``δ``, linear beyond), so that rare large errors — the arm's collisions, reward −100 —
+    pull its values less than the many small ones near the target [decision; 0 = the
+    squared error, DDPG's]."""
+    terminal_head: bool = False
+    """The critic learns the rewards of the steps that end the episode (the arm's collision,
+    −100) in a head of its own and the rest in another, ``Q = Q_run + Q_term``; ``huber_delta``
+    then applies to ``Q_run`` only, so a robust fit of the small segment returns no longer
+    blurs the collisions' cost (:attr:`DDPGBlock.terminal_head`). HI-DDPG's high level only
+    [decision; False = one value, the paper's]."""
+    end_is_terminal: bool = False
+    """No bootstrap at the end of any episode for this level's critic (as
+    :attr:`DDPGConfig.end_is_terminal`; the presets set it on the high level of the
+    terminating tasks)."""
+    env_terminal: bool = True
+    """An environment termination (a collision) ends the level's value: no bootstrap (spec §3).
+    False: bootstrap through it. The presets set False for the low level on terminating tasks:
+    its reward is intrinsic only, so a collision would end its costs without costing anything,
+    and it learned to drive into the obstacle whatever the goal (docs/algorithms.md)."""
+
+    def __post_init__(self) -> None:
+        hidden(self)
+        positive(self, "lr", "batch_size", "buffer_size")
+        unit(self, "gamma", "tau")
+        buffer(self)
+        if not (self.huber_delta >= 0 and math.isfinite(self.huber_delta)):
+            raise ValueError(f"LevelConfig.huber_delta={self.huber_delta} must be a finite "
+                             "number >= 0 (0: the squared TD error)")
