@@ -200,7 +200,8 @@ class DDPGBlock:
     def critic_update(self, state: BlockState, batch: Batch) -> tuple[BlockState, dict]:
         """One Adam step on the mean squared TD error (the Huber loss with ``huber_delta``; with
         ``terminal_head`` the sum of both heads' losses).
-        Batch keys: ``obs, action, reward, next_obs, terminated`` (+ optional ``discount``).
+        Batch keys: ``obs, action, reward, next_obs, terminated`` (+ optional ``discount``, and
+        ``huber_delta``: this step's ``δ`` in place of the block's, which must be > 0).
         Metrics: ``critic_loss`` (before the step), ``q_mean``."""
         y = self.target(state, batch)
 
@@ -208,7 +209,8 @@ class DDPGBlock:
             q = self.q_heads(critic, batch["obs"], batch["action"])
             q_run, y_run = (q[..., 0], y[..., 0]) if self.terminal_head else (q, y)
             if self.huber_delta > 0:
-                loss = jnp.mean(optax.huber_loss(q_run, y_run, delta=self.huber_delta))
+                delta = batch.get("huber_delta", self.huber_delta)
+                loss = jnp.mean(optax.huber_loss(q_run, y_run, delta=delta))
             else:
                 loss = jnp.mean((y_run - q_run) ** 2)
             if self.terminal_head:

@@ -299,10 +299,12 @@ class HIDDPG:
             high_tick = seg_end if c.high_update_on == "segment" else alive
             learn_high = (high_tick & started & ~pretrain
                           & (agent.high.buffer.size >= c.high_learning_starts))
-            low_state, low_m = low.maybe_update(agent.low, keys[5], learn_low)
+            low_state, low_m = low.maybe_update(agent.low, keys[5], learn_low,
+                                                episode=agent.episodes)
             hooks = ((durations.next_value(self, horizon), durations.actor_inputs(self, horizon))
-                     if self.argmax else ())
-            high_state, high_m = high.maybe_update(agent.high, keys[6], learn_high, *hooks)
+                     if self.argmax else (None, None))
+            high_state, high_m = high.maybe_update(agent.high, keys[6], learn_high, *hooks,
+                                                  episode=agent.episodes)
             agent = agent.replace(low=low_state, high=high_state,
                                   env_steps=agent.env_steps + alive.astype(jnp.int32))
             for m in _LOSSES:

@@ -121,12 +121,14 @@ class Level:
 
     # -- one update -------------------------------------------------------------------------
     def update(self, state: LevelState, key: jax.Array, next_value: Any = None,
-               actor_inputs: Any = None) -> tuple[LevelState, dict]:
+               actor_inputs: Any = None, episode: Any = None) -> tuple[LevelState, dict]:
         """Critic, actor (with the model-based term), model and target updates on one batch.
 
         ``next_value(block, block_state, s2)``, if given, is the critic target's value of the
         next states (instead of ``Q'(s2, μ'(s2))``); ``actor_inputs(key, inputs)``, if given,
-        rewrites the actor's batch of ``[s, c]`` (:mod:`hiddpg.agents.durations`)."""
+        rewrites the actor's batch of ``[s, c]`` (:mod:`hiddpg.agents.durations`). ``episode``
+        (the agent's episode count) picks the critic's Huber ``δ`` when the config changes it
+        (``huber_delta_late``)."""
         if self.hindsight is None:
             tr = buffer.sample(state.buffer, key, self.config.batch_size)
         else:
@@ -135,6 +137,13 @@ class Level:
         batch = {"obs": inputs, "action": tr["a"], "reward": tr["r"],
                  "next_obs": jnp.concatenate([tr["s2"], tr["c"]], axis=-1),
                  "terminated": tr["terminated"]}
+        c = self.config
+        if c.huber_delta_late > 0:
+            if episode is None:
+                raise ValueError("LevelConfig.huber_delta_late is set: Level.update needs the "
+                                 "episode count")
+            late = jnp.asarray(episode) >= c.huber_late_episode
+            batch["huber_delta"] = jnp.where(late, c.huber_delta_late, c.huber_delta)
         block = self.block
         if next_value is not None:
             batch["next_q"] = next_value(block, state.block, tr["s2"])
@@ -152,9 +161,9 @@ class Level:
         return state.replace(block=block_state, model=model_state), metrics
 
     def maybe_update(self, state: LevelState, key: jax.Array, do: jax.Array,
-                     next_value: Any = None, actor_inputs: Any = None):
+                     next_value: Any = None, actor_inputs: Any = None, episode: Any = None):
         """:meth:`update` if ``do`` else nothing (a branch even under the seed ``vmap``)."""
-        return gated(do, lambda s: self.update(s, key, next_value, actor_inputs),
+        return gated(do, lambda s: self.update(s, key, next_value, actor_inputs, episode),
                      lambda s: (s, zero_metrics()), state)
 
 

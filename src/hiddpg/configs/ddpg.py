@@ -119,6 +119,14 @@ class LevelConfig:
     ``δ``, linear beyond), so that rare large errors — the arm's collisions, reward −100 —
     pull its values less than the many small ones near the target [decision; 0 = the
     squared error, DDPG's]."""
+    huber_delta_late: float = 0.0
+    """``δ > 0``: from episode ``huber_late_episode`` on, the Huber loss takes this ``δ`` in
+    place of ``huber_delta``. A large ``δ`` first lets the collisions' cost shape the values
+    (the detour), a small one later fits the small segment returns near the target precisely
+    (the arm's last goal) [decision; 0 = ``huber_delta`` throughout]."""
+    huber_late_episode: int = 0
+    """The episode (counted from 0, pre-training included) from which ``huber_delta_late``
+    applies."""
     terminal_head: bool = False
     """The critic learns the rewards of the steps that end the episode (the arm's collision,
     −100) in a head of its own and the rest in another, ``Q = Q_run + Q_term``; ``huber_delta``
@@ -143,3 +151,14 @@ class LevelConfig:
         if not (self.huber_delta >= 0 and math.isfinite(self.huber_delta)):
             raise ValueError(f"LevelConfig.huber_delta={self.huber_delta} must be a finite "
                              "number >= 0 (0: the squared TD error)")
+        if not (self.huber_delta_late >= 0 and math.isfinite(self.huber_delta_late)):
+            raise ValueError(f"LevelConfig.huber_delta_late={self.huber_delta_late} must be a "
+                             "finite number >= 0 (0: huber_delta throughout)")
+        if self.huber_delta_late > 0:
+            if self.huber_delta <= 0:
+                raise ValueError(f"LevelConfig.huber_delta_late={self.huber_delta_late} needs "
+                                 "huber_delta > 0 (the loss before the switch), not "
+                                 f"{self.huber_delta}")
+            if not (isinstance(self.huber_late_episode, int) and self.huber_late_episode >= 1):
+                raise ValueError(f"LevelConfig.huber_late_episode={self.huber_late_episode!r} "
+                                 "must be an int >= 1 when huber_delta_late is set")
