@@ -80,7 +80,8 @@ episodes) to 5/15 (4500) and 9/15 (6000) when evaluating every 10 episodes; the
 reproduction's own run (every 20, other random draws): 4/15, one switch in 14/15; with the
 low level's hindsight goals and rest weight added to the sets (session 9): 12/15.
 HI-DDPG (and HI-DDPG-wo-model) on ArmObstacle get ``presets.ARM_HIGH_CRITIC`` (session 10:
-6/15 -> 11/15 successes; 5/15 on seeds 15-29 and 8/15 on seeds 30-44, session 11).
+6/15 -> 11/15 successes; 5/15 on seeds 15-29 and 8/15 on seeds 30-44, session 11; with the
+Huber δ going from 10 to 3 at episode 2160, session 12: 12/15, 13/15 and 13/15).
 A (scale, group) missing here falls back to the task's family (``budget_group``)."""
 
 
