@@ -37,3 +37,12 @@ def buffer(obj: Any) -> None:
             f"{type(obj).__name__}.batch_size={obj.batch_size} is larger than "
             f"buffer_size={obj.buffer_size}; it must be <= buffer_size"
         )
+
+
+def nonnegative(obj: Any, *names: str, hint: str = "") -> None:
+    """Each field a finite number >= 0 (``hint``, if given, ends the message)."""
+    for name in names:
+        v = getattr(obj, name)
+        if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+            raise ValueError(f"{type(obj).__name__}.{name}={v!r} must be a finite number >= 0"
+                             + (f" ({hint})" if hint else ""))

@@ -7,7 +7,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Literal
 
-from hiddpg.configs.checks import buffer, hidden, positive, unit
+from hiddpg.configs.checks import buffer, hidden, nonnegative, positive, unit
 
 
 @dataclass(frozen=True)
@@ -148,12 +148,8 @@ class LevelConfig:
         positive(self, "lr", "batch_size", "buffer_size")
         unit(self, "gamma", "tau")
         buffer(self)
-        if not (self.huber_delta >= 0 and math.isfinite(self.huber_delta)):
-            raise ValueError(f"LevelConfig.huber_delta={self.huber_delta} must be a finite "
-                             "number >= 0 (0: the squared TD error)")
-        if not (self.huber_delta_late >= 0 and math.isfinite(self.huber_delta_late)):
-            raise ValueError(f"LevelConfig.huber_delta_late={self.huber_delta_late} must be a "
-                             "finite number >= 0 (0: huber_delta throughout)")
+        nonnegative(self, "huber_delta", hint="0: the squared TD error")
+        nonnegative(self, "huber_delta_late", hint="0: huber_delta throughout")
         if self.huber_delta_late > 0:
             if self.huber_delta <= 0:
                 raise ValueError(f"LevelConfig.huber_delta_late={self.huber_delta_late} needs "

@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Literal
 
-from hiddpg.configs.checks import positive, unit
+from hiddpg.configs.checks import nonnegative, positive, unit
 from hiddpg.configs.ddpg import LevelConfig
 
 
@@ -135,12 +135,7 @@ class HIDDPGConfig:
         for name in ("pretrain_episodes", "learning_starts", "high_learning_starts"):
             if getattr(self, name) < 0:
                 raise ValueError(f"HIDDPGConfig.{name}={getattr(self, name)} must be >= 0")
-        if not (self.intrinsic_action_cost >= 0 and math.isfinite(self.intrinsic_action_cost)):
-            raise ValueError(f"HIDDPGConfig.intrinsic_action_cost={self.intrinsic_action_cost} "
-                             "must be a finite number >= 0")
-        if not (self.intrinsic_rest_weight >= 0 and math.isfinite(self.intrinsic_rest_weight)):
-            raise ValueError(f"HIDDPGConfig.intrinsic_rest_weight={self.intrinsic_rest_weight} "
-                             "must be a finite number >= 0")
+        nonnegative(self, "intrinsic_action_cost", "intrinsic_rest_weight")
         if not 0.0 <= self.low_hindsight <= 1.0:
             raise ValueError(f"HIDDPGConfig.low_hindsight={self.low_hindsight} must be a "
                              "probability in [0, 1]")
