@@ -127,9 +127,9 @@ CRITIC_DURATIONS = (
 #: until episode 2160 (72% of the 3000-episode budget; the detour is learned by then), δ = 3
 #: after it (the last goal made precise): **12/15, 13/15 and 13/15 on the three draws, 38/45
 #: (84%, 95% interval 71-94%), 2 collisions**; against δ = 10 throughout one-sided Fisher
-#: p = 0.001. Switching at 1440 instead: 14/15, none colliding; at 2640: 12/15, 2 collisions
-#: (seeds 0-14). The switch is an episode, not a fraction: with ``--episodes`` below 2160 the
-#: critic keeps δ = 10.
+#: p = 0.001. Switching at 1440 instead: 14/15, 13/15, 10/15 (37/45, 1 collision); at 2640:
+#: 12/15 with 2 collisions (seeds 0-14). The switch is an episode, not a fraction: with
+#: ``--episodes`` below 2160 the critic keeps δ = 10.
 ARM_HIGH_CRITIC = ("agent.high_hindsight=1", "agent.high.huber_delta=10",
                    "agent.high.huber_delta_late=3", "agent.high.huber_late_episode=2160")
 
