@@ -16,7 +16,7 @@ Every configuration is one run directory ``OUT/<name>``, exactly what ``hiddpg t
 its seeds vmapped in one process. Names are deterministic, ``<algo>-<task>-<preset>[-<key>=
 <value>...]-<hash>`` with a hash of the whole config (seeds are not part of a config). Every
 config is validated by :func:`expand` before anything runs; a run is complete when its
-progress.json says ``finished``. Shell: I/O around :mod:`hiddpg.commands.train` and
+progress.json says ``finished``. Shell: I/O around :mod:`hiddpg.runner` and
 :mod:`hiddpg.runs`.
 """
 
@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hiddpg.commands.train import parse_seeds
+from hiddpg import runner
 from hiddpg.configs import TrainConfig, to_dict
 from hiddpg.presets import make_config
 from hiddpg.runs import CONFIG_FILE, PROGRESS_FILE, Run, atomic_write, make_trainer
@@ -193,9 +193,9 @@ def _names(value: Any, key: str) -> list[str]:
 def _seeds(value: Any) -> tuple[int, ...]:
     if isinstance(value, str):
         try:
-            return tuple(parse_seeds(value))
+            return tuple(runner.parse_seeds(value))
         except ValueError as err:
-            raise SweepError(f"seeds: {err}") from None
+            raise SweepError(str(err)) from None
     items = [value] if isinstance(value, int) and not isinstance(value, bool) else value
     if (not isinstance(items, list) or not items
             or not all(isinstance(s, int) and not isinstance(s, bool) for s in items)):
@@ -305,18 +305,42 @@ def run_state(out: Path, run: SweepRun) -> str:
 def prepare(run: SweepRun, out: Path) -> tuple[list[str] | None, int]:
     """``hiddpg train`` arguments that create or resume the run (``None`` if it is finished)
     and the episode it starts from."""
+    state, start = _make_ready(run, out)
+    if state == FINISHED:
+        return None, start
+    if state == NEW:
+        return run.train_argv(out), start
+    return ["--resume", str(out / run.name)], start
+
+
+def open_run(run: SweepRun, out: Path) -> runner.ReadyRun | None:
+    """``run``'s directory under ``out``, created or opened for resume, with its trainer and
+    the episode it starts from (:mod:`hiddpg.runner`); ``None`` if it is finished."""
+    state, _ = _make_ready(run, out)
+    if state == FINISHED:
+        return None
+    path = out / run.name
+    if state == NEW:
+        return runner.ReadyRun(runner.prepare_new(run.config, run.seeds, path),
+                               make_trainer(run.config), 0)
+    return runner.open_for_resume(path)
+
+
+def _make_ready(run: SweepRun, out: Path) -> tuple[str, int]:
+    """The run's state (:func:`run_state`) and the episode it starts from, after removing what
+    a run killed inside ``Run.create`` left behind."""
     path = out / run.name
     state = run_state(out, run)
     if state == FINISHED:
-        return None, run.config.episodes
+        return state, run.config.episodes
     if state == NEW:
         if path.exists():
             shutil.rmtree(path)
-        return run.train_argv(out), 0
+        return state, 0
     saved = Run.open(path)
     if not (path / PROGRESS_FILE).is_file():  # killed inside Run.create
         saved.write_progress(0, 0.0, "running")
-    return ["--resume", str(path)], saved.checkpoint_episodes()
+    return state, saved.checkpoint_episodes()
 
 
 def record_attempt(out: Path, run: SweepRun, pid: int, start_episode: int) -> None:

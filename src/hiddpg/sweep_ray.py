@@ -6,8 +6,9 @@
   path on every node (a shared filesystem); the driver reads progress from it.
 * If a task's worker process dies (killed, out of memory, node lost) or the task raises, Ray
   runs it again, up to ``retries`` times; the retry resumes from the run's last checkpoint
-  (``hiddpg train --resume``), so chunks already checkpointed are not trained again. A config
-  error or a non-finite loss is an exit code, not an exception, and is not retried.
+  (:func:`hiddpg.runner.open_for_resume`), so chunks already checkpointed are not trained
+  again. A config error or a non-finite loss is an exit code, not an exception, and is not
+  retried.
 * ``address``: ``None`` joins ``RAY_ADDRESS`` if set, else starts Ray on this machine;
   ``"auto"`` joins the cluster started on this machine with ``ray start``; ``HOST:PORT`` joins
   that cluster's head node.
@@ -24,16 +25,18 @@ from pathlib import Path
 
 import ray
 
-from hiddpg import sweep
-from hiddpg.commands import train as train_cmd
+from hiddpg import runner, sweep
 from hiddpg.devices import CPU_DEVICES_FLAG
+from hiddpg.reporter import ConsoleReporter
 
 WAIT_S = 0.5
+#: a task's result as the exit code ``hiddpg train`` gives it (2: a config error)
+EXIT_CODES = {runner.FINISHED: 0, runner.FAILED: 1, runner.INTERRUPTED: 130}
 
 
 def train_task(run: sweep.SweepRun, out: str) -> int:
-    """Create or resume ``run`` under ``out`` and train it to the end; the exit code of
-    ``hiddpg train`` (0 also when it was already finished)."""
+    """Create or resume ``run`` under ``out`` and train it to the end; the exit code
+    ``hiddpg train`` would give (0 also when it was already finished)."""
     path = Path(out)
     if not path.is_dir():
         print(f"hiddpg sweep: error: output directory {out} is not visible on host "
@@ -41,14 +44,19 @@ def train_task(run: sweep.SweepRun, out: str) -> int:
               file=sys.stderr)
         return 2
     try:
-        argv, start = sweep.prepare(run, path)
-    except sweep.SweepError as err:
+        ready = sweep.open_run(run, path)
+    except (ValueError, TypeError, FileNotFoundError) as err:  # SweepError is a ValueError
         print(f"hiddpg sweep: error: {err}", file=sys.stderr)
         return 2
-    if argv is None:
+    if ready is None:
         return 0
-    sweep.record_attempt(path, run, pid=os.getpid(), start_episode=start)
-    return train_cmd.main(argv)
+    sweep.record_attempt(path, run, pid=os.getpid(), start_episode=ready.done)
+    result = runner.train_run(ready.run, ready.trainer, reporter=ConsoleReporter())
+    if result.status == runner.FINISHED:
+        print(runner.result_line(ready.run, result.wall_time))
+    elif result.status == runner.FAILED:
+        print(f"hiddpg sweep: error: {result.error}", file=sys.stderr)
+    return EXIT_CODES[result.status]
 
 
 def _env_vars(gpus_per_run: float, cpus_per_run: float = 1.0) -> dict[str, str]:
@@ -68,8 +76,8 @@ def run_ray(todo: list[sweep.SweepRun], out: Path, *, address: str | None = None
             cpus_per_run: float = 1.0, gpus_per_run: float = 0.0, retries: int = 3,
             progress=None) -> dict[str, int | str]:
     """Train ``todo`` as Ray tasks; returns each run's exit code, or the error of a task that
-    failed after its retries. ``progress`` (a :class:`hiddpg.commands.sweep.SweepProgress`)
-    is polled while waiting and told when a run ends."""
+    failed after its retries. ``progress`` (the sweep command's ``SweepProgress``) is polled
+    while waiting and told when a run ends."""
     try:
         if address is None and not os.environ.get("RAY_ADDRESS"):
             ray.init(include_dashboard=False, log_to_driver=False)

@@ -18,6 +18,7 @@ The engine knows nothing about an agent's inside (see :mod:`hiddpg.agents.base`)
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from functools import partial
 from typing import Any
 
@@ -45,6 +46,13 @@ class RunState:
 def seed_keys(seeds: list[int] | tuple[int, ...]) -> jax.Array:
     """One PRNG key per seed (seed ``i`` always gets ``PRNGKey(i)``)."""
     return jnp.stack([jax.random.PRNGKey(int(s)) for s in seeds])
+
+
+def eval_keys(key: int, seeds: Sequence[int]) -> jax.Array:
+    """One evaluation key per seed, ``fold_in(PRNGKey(key), seed)``: independent of which
+    other seeds are in the run."""
+    base = jax.random.PRNGKey(key)
+    return jnp.stack([jax.random.fold_in(base, int(s)) for s in seeds])
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

@@ -94,7 +94,7 @@ def test_a_different_config_in_the_same_out_is_refused(reproduced, capsys):
 
 
 def test_an_interrupted_run_is_resumed(reproduced, monkeypatch, tmp_path):
-    from hiddpg.commands import train as train_cmd
+    from hiddpg import runner
 
     ctx = Context(tmp_path, seeds=2, episodes=20, sets=("agent.hidden=[16,16]",))
     target = ctx.run_path("hi-ddpg", "PuckTrajectory2")
@@ -104,14 +104,14 @@ def test_an_interrupted_run_is_resumed(reproduced, monkeypatch, tmp_path):
     run.write_progress(20, 1.0, "running")  # as a killed process leaves it
     calls = []
 
-    def fake_train(argv, on_chunk=None):
-        calls.append(argv)
+    def fake_train(opened, trainer, *, on_chunk=None, reporter=None):
+        calls.append((opened.path, trainer.config.episodes))
         run.write_progress(20, 1.0, "finished")
-        return 0
+        return runner.RunResult(runner.FINISHED, 20, 1.0)
 
-    monkeypatch.setattr(train_cmd, "main", fake_train)
+    monkeypatch.setattr(runner, "train_run", fake_train)
     assert ensure_run(ctx, "hi-ddpg", "PuckTrajectory2") == target
-    assert calls == [["--resume", str(target), "--episodes", "20"]]
+    assert calls == [(target, 20)]
     ensure_run(ctx, "hi-ddpg", "PuckTrajectory2")  # finished now: no second call
     assert len(calls) == 1
 

@@ -18,12 +18,12 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-import jax
 import numpy as np
 
 from hiddpg.commands.common import Parser as _Parser
 from hiddpg.commands.common import UsageError, argv_or_help
 from hiddpg.runs import Run, make_trainer
+from hiddpg.train import eval_keys
 
 PROG = "hiddpg eval"
 #: GIF frame rate cap: the arm (50 control steps/s) plays at half speed.
@@ -42,12 +42,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--key", type=int, default=0,
                    help="evaluation key: seed s is evaluated with fold_in(PRNGKey(K), s)")
     return p
-
-
-def eval_keys(key: int, seeds: Sequence[int]) -> jax.Array:
-    """One evaluation key per seed, independent of which other seeds are in the run."""
-    base = jax.random.PRNGKey(key)
-    return jax.numpy.stack([jax.random.fold_in(base, int(s)) for s in seeds])
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -8,10 +8,10 @@ An experiment's output directory ``OUT`` holds::
     sections/figN.json    each figure's numbers and report text (report.md is built from them)
     report.md             the numbers behind the figures
 
-:func:`ensure_run` trains a run through the train command's in-process ``main`` only if it is
-not on disk: a finished run is reused as is, an interrupted one is resumed (``--resume``), a
-run whose config differs from the one asked for is an error (use another ``--out``). This
-module is shell: files and the train command, no plotting.
+:func:`ensure_run` trains a run (:func:`hiddpg.runner.train_run`) only if it is not on disk:
+a finished run is reused as is, an interrupted one is resumed from its last checkpoint, a run
+whose config differs from the one asked for is an error (use another ``--out``). This module is
+shell: files and the run loop, no plotting.
 """
 
 from __future__ import annotations
@@ -19,16 +19,20 @@ from __future__ import annotations
 import dataclasses
 import io
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from hiddpg import runner
 from hiddpg.configs import HI_DDPG_ALGORITHMS, TrainConfig
 from hiddpg.experiments.rundata import SNAPSHOT_DIR, ExperimentError
 from hiddpg.presets import ARM_HIGH_CRITIC, CRITIC_DURATIONS
+from hiddpg.reporter import ConsoleReporter
 from hiddpg.runs import CONFIG_FILE, Run, atomic_write, make_trainer
+from hiddpg.train import eval_keys
 
 SCALES = ("quick", "paper")
 FAILED_FOR_GOOD = "non-finite"
@@ -216,11 +220,8 @@ def available(ctx: Context, algo: str, task: str) -> str | None:
 def ensure_run(ctx: Context, algo: str, task: str) -> Path:
     """The run directory of ``algo`` on ``task``, trained to its budget: reused if finished,
     resumed if interrupted, created otherwise; the last snapshot is made if missing."""
-    from hiddpg.commands import train as train_cmd
-
     path, config = ctx.run_path(algo, task), ctx.config(algo, task)
     seeds = ctx.seed_list(task)
-    hook = lambda run, episodes: write_snapshot(run)  # noqa: E731
     if (path / CONFIG_FILE).is_file():
         run = Run.open(path)
         _check_same(run, config, seeds)
@@ -232,24 +233,36 @@ def ensure_run(ctx: Context, algo: str, task: str) -> Path:
             ctx.say(f"{path}: resuming at episode {done} of {config.episodes}")
             if done and not (path / SNAPSHOT_DIR / snapshot_name(done)).is_file():
                 write_snapshot(run)  # killed between its checkpoint and its snapshot
-            code = train_cmd.main(["--resume", str(path), "--episodes", str(config.episodes)],
-                                  on_chunk=hook)
-            _check_code(code, path)
+            _train(path, lambda: runner.open_for_resume(path, config.episodes))
         else:
             ctx.say(f"{path}: finished, reused")
     else:
         ctx.say(f"{path}: training {algo} on {task}, {len(seeds)} seeds, "
                 f"{config.episodes} episodes")
-        argv = [algo, task, "--preset", ctx.budget(task).preset,
-                "--seeds", ",".join(map(str, seeds)), "--out", str(path.parent),
-                "--name", path.name]
-        for item in ctx.train_sets(algo, task):
-            argv += ["--set", item]
-        _check_code(train_cmd.main(argv, on_chunk=hook), path)
+        _train(path, lambda: runner.ReadyRun(runner.prepare_new(config, seeds, path),
+                                             make_trainer(config), 0))
     run = Run.open(path)
     if not (path / SNAPSHOT_DIR / snapshot_name(run.checkpoint_episodes())).is_file():
         write_snapshot(run)
     return path
+
+
+def _train(path: Path, open_run: Callable[[], runner.ReadyRun]) -> None:
+    """Train the run ``open_run()`` creates or opens, a snapshot after every chunk; a run
+    stopped by a non-finite loss is kept (the figures use its episodes so far)."""
+    try:
+        run, trainer, _ = open_run()
+    except (ValueError, TypeError, FileNotFoundError) as err:
+        raise ExperimentError(f"training {path} was refused: {err}") from None
+    result = runner.train_run(run, trainer, on_chunk=lambda trained, _: write_snapshot(trained),
+                              reporter=ConsoleReporter())
+    if result.status == runner.INTERRUPTED:
+        raise KeyboardInterrupt
+    if result.status == runner.FAILED:
+        print(f"warning: {path} stopped early ({result.error}); using its episodes so far",
+              file=sys.stderr)
+        return
+    print(runner.result_line(run, result.wall_time))
 
 
 def _check_same(run: Run, config: TrainConfig, seeds: list[int]) -> None:
@@ -263,16 +276,6 @@ def _check_same(run: Run, config: TrainConfig, seeds: list[int]) -> None:
                               "remove it or choose another --out")
 
 
-def _check_code(code: int, path: Path) -> None:
-    if code == 1:  # a non-finite loss: the figures use the episodes before it
-        print(f"warning: {path} stopped early (non-finite loss); using its episodes so far",
-              file=sys.stderr)
-    if code == 2:
-        raise ExperimentError(f"training {path} was refused (usage error above)")
-    if code == 130:
-        raise KeyboardInterrupt
-
-
 # ------------------------------------------------------------------------------ snapshots
 
 
@@ -283,8 +286,6 @@ def snapshot_name(episodes: int) -> str:
 def write_snapshot(run: Run) -> Path:
     """Evaluate the checkpointed policies (one noise-free episode per seed) and store metrics
     and trajectories in ``snapshots/episode_NNNNNN.npz``."""
-    from hiddpg.commands.eval import eval_keys
-
     trainer = make_trainer(run.config)
     state, done = run.load_checkpoint(trainer)
     metrics, traj = trainer.evaluate_seeds(state, eval_keys(EVAL_KEY, run.seeds))
