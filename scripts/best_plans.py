@@ -26,8 +26,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from hiddpg.commands.eval import eval_keys
 from hiddpg.runs import Run, make_trainer
+from hiddpg.train import eval_keys
 
 
 def plan_rollouts(trainer):

@@ -18,9 +18,9 @@ import argparse
 
 import numpy as np
 
-from hiddpg.commands.eval import eval_keys
 from hiddpg.experiments.probes import first_segment
 from hiddpg.runs import Run, make_trainer
+from hiddpg.train import eval_keys
 
 
 def main() -> None:

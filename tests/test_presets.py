@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from hiddpg.configs import CriticDurations, GoalHindsight, RestTerm
 from hiddpg.envs import make
 from hiddpg.presets import CRITIC_DURATIONS, STABILIZE, make_config
 
@@ -64,21 +65,20 @@ def test_high_level_noise_decays_on_the_arm_obstacle_task_only(task, preset):
 
 
 def test_the_critic_durations_sets_make_a_valid_argmax_config_with_low_noise_to_zero():
-    """``CRITIC_DURATIONS`` on top of the hold-choice preset: argmax durations, no model,
+    """``CRITIC_DURATIONS`` on top of the hold-choice preset: the critic's durations, no model,
     goals penalised by 0.1, the low level's noise reaching 0 with this run's episodes, its
     hindsight goals and the rest weight."""
     for preset in ("paper", "quick"):
         cfg = make_config("hi-ddpg", "PuckTrajectory2", preset,
                           ["episodes=700", *CRITIC_DURATIONS])
         agent = cfg.agent
-        assert (agent.duration_choice, agent.duration_explore, agent.hold_choice) == (
-            "argmax", 0.5, False)
-        assert agent.model_weight == 0.0 and not agent.use_model and agent.high_time_input
+        assert agent.choice == CriticDurations(explore=0.5)
+        assert agent.model_weight == 0.0 and not agent.use_model
         assert agent.high.action_l2 == 0.1 and agent.low.action_l2 == 1.0
         low = agent.low.noise
         assert (low.sigma, low.final_sigma, low.decay_episodes) == (0.1, 0.0, 700)
         assert not agent.high.noise.decays
-        assert (agent.low_hindsight, agent.intrinsic_rest_weight) == (0.8, 0.3)
+        assert (agent.low_hindsight, agent.rest_term) == (GoalHindsight(0.8), RestTerm(0.3))
     explicit = make_config("hi-ddpg", "PuckTrajectory2", "quick",
                            ["episodes=700", *CRITIC_DURATIONS, "agent.low.noise.decay_episodes=9"])
     assert explicit.agent.low.noise.decay_episodes == 9

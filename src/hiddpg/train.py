@@ -18,7 +18,7 @@ The engine knows nothing about an agent's inside (see :mod:`hiddpg.agents.base`)
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from functools import partial
 from typing import Any
 
@@ -60,12 +60,18 @@ class Trainer:
     """Builds env and agent from a :class:`TrainConfig` and runs episodes in jitted chunks."""
 
     config: TrainConfig
+    override: Callable[[Any], Any] | None = None
+    """``agent -> agent``: replaces the agent the config builds (a diagnostic's policy
+    override, :mod:`hiddpg.experiments.overrides`); None trains the config's agent."""
 
     def __post_init__(self) -> None:
         env, env_params = make_env(self.config.task, **self.config.env_overrides)
         object.__setattr__(self, "env", env)
         object.__setattr__(self, "env_params", env_params)
-        object.__setattr__(self, "agent", make_agent(self.config.algo, self.config.agent, env))
+        agent = make_agent(self.config.algo, self.config.agent, env)
+        if self.override is not None:
+            agent = self.override(agent)
+        object.__setattr__(self, "agent", agent)
 
     # -- pure, per seed ----------------------------------------------------------------------
     def init(self, key: jax.Array) -> RunState:

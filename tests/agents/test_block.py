@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from hiddpg.agents.block import BlockState, DDPGBlock
+from hiddpg.agents.transition import Transition
 
 OBS, ACT, B = 3, 2, 32
 
@@ -21,14 +22,14 @@ def _block(**kw):
 
 def _batch(seed=0, terminated=None):
     k = jax.random.split(jax.random.PRNGKey(seed), 5)
-    return {
-        "obs": jax.random.normal(k[0], (B, OBS)),
-        "action": jax.random.uniform(k[1], (B, ACT), minval=-1, maxval=1),
-        "reward": jax.random.normal(k[2], (B,)),
-        "next_obs": jax.random.normal(k[3], (B, OBS)),
-        "terminated": jax.random.bernoulli(k[4], 0.3, (B,)) if terminated is None
+    return Transition(
+        obs=jax.random.normal(k[0], (B, OBS)), context=jnp.zeros((B, 0)),
+        action=jax.random.uniform(k[1], (B, ACT), minval=-1, maxval=1),
+        reward=jax.random.normal(k[2], (B,)),
+        next_obs=jax.random.normal(k[3], (B, OBS)),
+        terminated=jax.random.bernoulli(k[4], 0.3, (B,)) if terminated is None
         else jnp.full((B,), terminated),
-    }
+    )
 
 
 def _perturbed(block, key=1):
@@ -60,7 +61,7 @@ def test_init_copies_online_into_target_networks():
 
 
 @pytest.mark.parametrize("bad", [dict(hidden=()), dict(gamma=1.5), dict(tau=-0.1),
-                                 dict(obs_dim=0), dict(huber_delta=-1.0)])
+                                 dict(obs_dim=0)])
 def test_invalid_block_names_the_field(bad):
     with pytest.raises(ValueError, match=next(iter(bad))):
         _block(**bad)
@@ -70,16 +71,17 @@ def test_target_bootstraps_unless_terminated():
     block = _block()
     state = _perturbed(block)
     batch = _batch()
-    nq = block.q(state.target_critic, batch["next_obs"],
-                 block.mu(state.target_actor, batch["next_obs"]))
+    nq = block.q(state.target_critic, batch.next_obs,
+                 block.mu(state.target_actor, batch.next_obs))
     assert float(jnp.abs(nq).mean()) > 0.01
-    expected = batch["reward"] + 0.9 * (1.0 - batch["terminated"]) * nq
+    expected = batch.reward + 0.9 * (1.0 - batch.terminated) * nq
     np.testing.assert_allclose(block.target(state, batch), expected, rtol=1e-6, atol=1e-6)
     done = _batch(terminated=True)
-    np.testing.assert_array_equal(block.target(state, done), done["reward"])
-    per_sample = {**batch, "discount": jnp.linspace(0.0, 1.0, B)}
-    expected = batch["reward"] + per_sample["discount"] * (1.0 - batch["terminated"]) * nq
-    np.testing.assert_allclose(block.target(state, per_sample), expected, rtol=1e-6, atol=1e-6)
+    np.testing.assert_array_equal(block.target(state, done), done.reward)
+    given = jnp.linspace(-3.0, 3.0, B)  # a next value given in place of Q'(s', μ'(s'))
+    expected = batch.reward + 0.9 * (1.0 - batch.terminated) * given
+    np.testing.assert_allclose(block.target(state, batch, next_q=given), expected, rtol=1e-6,
+                               atol=1e-6)
 
 
 def test_critic_update_reports_the_td_loss_and_reduces_it():
@@ -87,7 +89,7 @@ def test_critic_update_reports_the_td_loss_and_reduces_it():
     state = _perturbed(block)
     batch = _batch()
     y = block.target(state, batch)
-    loss0 = jnp.mean((y - block.q(state.critic, batch["obs"], batch["action"])) ** 2)
+    loss0 = jnp.mean((y - block.q(state.critic, batch.obs, batch.action)) ** 2)
     update = jax.jit(block.critic_update)
     new, metrics = update(state, batch)
     np.testing.assert_allclose(metrics["critic_loss"], loss0, rtol=1e-5)
@@ -104,7 +106,7 @@ def test_critic_update_reports_the_td_loss_and_reduces_it():
 def test_policy_gradient_is_the_chain_rule_through_the_critic():
     block = _block()
     state = _perturbed(block)
-    obs = _batch()["obs"]
+    obs = _batch().obs
     grads, metrics = block.policy_gradient(state, obs)
     neg_q = lambda p: -jnp.mean(block.q(state.critic, obs, block.mu(p, obs)))
     expected = jax.grad(neg_q)(state.actor)
@@ -115,7 +117,7 @@ def test_policy_gradient_is_the_chain_rule_through_the_critic():
 def test_extra_dq_da_enters_the_surrogate_loss():
     block = _block()
     state = _perturbed(block)
-    obs = _batch()["obs"]
+    obs = _batch().obs
     c = jnp.array([2.0, -3.0])
     extra = lambda o, a: jnp.sin(a) + c  # any function of (obs, action)
     grads, metrics = block.policy_gradient(state, obs, extra)
@@ -134,7 +136,7 @@ def test_extra_dq_da_enters_the_surrogate_loss():
 def test_actor_update_with_extra_gradient_moves_the_action_that_way(sign):
     block = _block(actor_lr=1e-3)
     state = _perturbed(block)
-    obs = _batch()["obs"]
+    obs = _batch().obs
     extra = lambda o, a: sign * 10.0 * jnp.ones_like(a)
     update = jax.jit(block.actor_update, static_argnums=2)
     plain, pushed = state, state
@@ -197,33 +199,27 @@ def test_huber_critic_loss_is_squared_near_the_target_and_linear_beyond():
     """``huber_delta``: the reported loss is the Huber loss of the TD errors, and a fit to
     targets with one outlier (the arm's collision, -100 among returns near -1) ends nearer
     the many than the squared error's fit does (the median-like pull, not the mean's)."""
-    block = _block(huber_delta=1.0)
+    block = _block()
     state = _perturbed(block)
     batch = _batch(terminated=True)  # targets = rewards
-    err = batch["reward"] - block.q(state.critic, batch["obs"], batch["action"])
+    err = batch.reward - block.q(state.critic, batch.obs, batch.action)
     a = jnp.abs(err)
     expected = jnp.mean(jnp.where(a <= 1.0, 0.5 * err**2, a - 0.5))
-    _, metrics = jax.jit(block.critic_update)(state, batch)
+    _, metrics = jax.jit(lambda s, b: block.critic_update(s, b, huber_delta=1.0))(state, batch)
     np.testing.assert_allclose(metrics["critic_loss"], expected, rtol=1e-5)
 
     # one observation, 31 targets of -1 and one of -100: the squared error fits the mean
     # (about -4.1), the Huber loss about -1 - 1/31 (a unit pull per outlier)
-    same = {**batch, "obs": jnp.zeros((B, OBS)), "action": jnp.zeros((B, ACT)),
-            "reward": jnp.full((B,), -1.0).at[0].set(-100.0)}
+    same = batch.replace(obs=jnp.zeros((B, OBS)), action=jnp.zeros((B, ACT)),
+                         reward=jnp.full((B,), -1.0).at[0].set(-100.0))
 
-    def fit(delta: float) -> float:
-        blk = _block(huber_delta=delta, critic_lr=3e-2)
+    def fit(delta: float | None) -> float:
+        blk = _block(critic_lr=3e-2)
         s = blk.init(jax.random.PRNGKey(0))
-        s = jax.lax.fori_loop(0, 2000, lambda _, s: blk.critic_update(s, same)[0], s)
+        s = jax.lax.fori_loop(
+            0, 2000, lambda _, s: blk.critic_update(s, same, huber_delta=delta)[0], s)
         return float(blk.q(s.critic, jnp.zeros(OBS), jnp.zeros(ACT)))
 
-    fits = {delta: fit(delta) for delta in (0.0, 1.0)}
-    assert abs(fits[0.0] - (-1.0 - 99.0 / B)) < 0.2, fits
+    fits = {delta: fit(delta) for delta in (None, 1.0)}
+    assert abs(fits[None] - (-1.0 - 99.0 / B)) < 0.2, fits
     assert abs(fits[1.0] - (-1.0 - 1.0 / (B - 1))) < 0.2, fits
-
-
-def test_huber_delta_must_not_be_negative():
-    from hiddpg.configs import LevelConfig
-
-    with pytest.raises(ValueError, match=r"huber_delta=-1.0 must be a finite number >= 0"):
-        LevelConfig(huber_delta=-1.0)

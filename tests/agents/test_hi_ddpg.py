@@ -32,6 +32,7 @@ from hiddpg.agents.block import BlockState
 from hiddpg.agents.hi_ddpg import HIDDPG, HIDDPGState, make_hiddpg
 from hiddpg.agents.level import LevelState
 from hiddpg.agents.model_grad import ModelState
+from hiddpg.agents.transition import Transition, example
 from hiddpg.configs import HIDDPGConfig, LevelConfig, NoiseConfig
 from hiddpg.envs.base import Environment, GoalSpace, StepResult, replace_params
 from hiddpg.envs.puckworld import PuckState, PuckTrajectory1
@@ -141,7 +142,8 @@ def _level_state(level, shapes, rng) -> LevelState:
     model_state = model.set_learning_rate(ModelState(params, model.optimizer.init(params)),
                                           model.lr)
     return LevelState(block_state, model_state,
-                      buffer.init(level.example_transition(), level.config.buffer_size))
+                      buffer.init(example(level.state_dim, level.action_dim, level.context_dim),
+                                  level.config.buffer_size))
 
 
 @functools.cache
@@ -257,6 +259,13 @@ class Episode(NamedTuple):
     cut: bool  # the last segment was cut: round(T) > the steps left
 
 
+def _rows(data: Transition, start: int, stop: int) -> dict[str, np.ndarray]:
+    """Buffer slots ``start:stop`` as arrays named like Alg. 1's ``(s, c, a, r, s', term)``."""
+    names = {"s": "obs", "c": "context", "a": "action", "r": "reward", "s2": "next_obs",
+             "terminated": "terminated"}
+    return {k: np.asarray(getattr(data, f)[start:stop]) for k, f in names.items()}
+
+
 def check_episode(run: Run, e: int, length: int, state_cls: type = ReachState,
                   with_high: bool = True) -> Episode:
     """Check episode ``e`` (1-based) from the buffers: it must have ``length`` steps; D_L
@@ -269,8 +278,8 @@ def check_episode(run: Run, e: int, length: int, state_cls: type = ReachState,
     l0, l1 = int(before.low.buffer.size), int(after.low.buffer.size)
     h0, h1 = int(before.high.buffer.size), int(after.high.buffer.size)
     assert l1 - l0 == length, "D_L gets exactly one transition per step"
-    low = {k: np.asarray(v[l0:l1]) for k, v in run.final.low.buffer.data.items()}
-    high = {k: np.asarray(v[h0:h1]) for k, v in run.final.high.buffer.data.items()}
+    low = _rows(run.final.low.buffer.data, l0, l1)
+    high = _rows(run.final.high.buffer.data, h0, h1)
     s, g, a, s2 = low["s"], low["c"], low["a"], low["s2"]
 
     # the environment's reward, next state and termination, recomputed from (s, t, a)
@@ -493,17 +502,17 @@ def test_end_is_terminal_flags_the_time_limit_per_level():
     last segment of every episode in D_H (the paper's arm rule), the low level keeps
     bootstrapping unless it asks too."""
     run = base_run()
-    assert not run.final.high.buffer.data["terminated"].any()
-    assert not run.final.low.buffer.data["terminated"].any()
+    assert not run.final.high.buffer.data.terminated.any()
+    assert not run.final.low.buffer.data.terminated.any()
     cfg = dataclasses.replace(BASE, high=dataclasses.replace(BASE.high, end_is_terminal=True))
     flagged = _run(make_hiddpg(cfg, Reach()), Reach(), EPISODES)
     high = flagged.final.high.buffer
-    terminal = np.asarray(high.data["terminated"][: int(high.size)])
+    terminal = np.asarray(high.data.terminated[: int(high.size)])
     assert int(terminal.sum()) == EPISODES  # exactly one per episode: its last segment
-    assert not flagged.final.low.buffer.data["terminated"].any()
+    assert not flagged.final.low.buffer.data.terminated.any()
     cfg = dataclasses.replace(cfg, low=dataclasses.replace(BASE.low, end_is_terminal=True))
     low = _run(make_hiddpg(cfg, Reach()), Reach(), EPISODES).final.low.buffer
-    np.testing.assert_array_equal(np.asarray(low.data["terminated"][: EPISODES * HORIZON]),
+    np.testing.assert_array_equal(np.asarray(low.data.terminated[: EPISODES * HORIZON]),
                                   np.tile([0] * (HORIZON - 1) + [1], EPISODES))
 
 
@@ -514,8 +523,8 @@ def test_low_level_can_bootstrap_through_a_termination():
     run = _run(make_hiddpg(cfg, Reach()), Reach(), EPISODES, terminate_at=9)
     low, high = run.final.low.buffer, run.final.high.buffer
     assert int(low.size) == 9 * EPISODES  # the episodes still end at the termination
-    assert not np.asarray(low.data["terminated"][: int(low.size)]).any()
-    assert int(np.asarray(high.data["terminated"][: int(high.size)]).sum()) == EPISODES
+    assert not np.asarray(low.data.terminated[: int(low.size)]).any()
+    assert int(np.asarray(high.data.terminated[: int(high.size)]).sum()) == EPISODES
 
 
 def test_returns_subtract_the_switch_cost():
@@ -561,7 +570,7 @@ def test_steps_after_termination_are_masked():
     high_updates = 0
     for e in range(1, EPISODES + 1):
         ep = check_episode(run, e, 9)  # 9 inserts into D_L, one D_H entry per segment
-        low = run.final.low.buffer.data["terminated"]
+        low = run.final.low.buffer.data.terminated
         np.testing.assert_array_equal(low[9 * (e - 1): 9 * e], [0] * 8 + [1])
         first = max(STARTS - 9 * (e - 1), 0)
         high_updates += sum(first <= stop - 1 for stop in ep.stops)
@@ -570,7 +579,7 @@ def test_steps_after_termination_are_masked():
         assert _count(state.high) == high_updates
     # the last segment of every episode ends with the termination
     high = run.final.high.buffer
-    assert int(high.data["terminated"][: int(high.size)].sum()) == EPISODES
+    assert int(high.data.terminated[: int(high.size)].sum()) == EPISODES
     np.testing.assert_array_equal(run.metrics["length"], 9)
     np.testing.assert_array_equal(run.metrics["env_steps"], 9 * np.arange(1, 7))
 
@@ -614,7 +623,7 @@ def test_pretraining_bypasses_the_high_level():
     assert _count(run.state(4).low) == 4 * horizon - PUCK_STARTS
     # the puck episode terminates at the horizon: each episode's last segment is terminal
     high = run.final.high.buffer
-    np.testing.assert_array_equal(np.flatnonzero(high.data["terminated"][: int(high.size)]),
+    np.testing.assert_array_equal(np.flatnonzero(high.data.terminated[: int(high.size)]),
                                   [n3 - 1, n3 + len(ep4.starts) - 1])
     m = run.metrics
     np.testing.assert_allclose(m["return"], m["env_return"] - 10.0 * m["switches"], rtol=1e-5)
@@ -692,39 +701,3 @@ def test_high_level_noise_follows_its_schedule():
         own = np.asarray(act(run.state(e - 1).high, ep.s[0]))
         gap = np.abs(ep.goal[0] - own)[[0, 2]].max()
         assert (gap > 1e-3) if noisy else (gap < 1e-5), (e, gap)
-
-
-def test_quadratic_intrinsic_reward_with_an_action_cost():
-    """``intrinsic_squared`` and ``intrinsic_action_cost = w``: every D_L reward is
-    ``-(|P (s' - g)|^2 + w |a|^2)`` with ``a`` the action given to the environment."""
-    w = 0.7
-    config = dataclasses.replace(BASE, intrinsic_squared=True, intrinsic_action_cost=w)
-    agent = make_hiddpg(config, Reach())
-    run = _run(agent, Reach(), 3)
-    low = {k: np.asarray(v[: 3 * HORIZON]) for k, v in run.final.low.buffer.data.items()}
-    env_a = np.asarray(agent.env_action(jnp.asarray(low["a"])))
-    err = low["s2"][:, [0, 2]] - low["c"][:, [0, 2]]
-    expected = -(np.sum(err**2, axis=-1) + w * np.sum(env_a**2, axis=-1))
-    np.testing.assert_allclose(low["r"], expected, rtol=1e-5, atol=1e-6)
-
-
-def test_the_puck_reference_controller_is_optimal_for_the_quadratic_intrinsic_reward():
-    """With ``intrinsic_squared`` and ``w = 3 / 0.95`` (normalised actions, ``F = 10 a``) the
-    best low-level controller under ``γ_L = 0.95`` is the puck's reference controller: the
-    discounted Riccati recursion for ``-(|p' - g|^2 + w |a|^2)`` (a cost on the *next* state)
-    converges to the spec's gain ``K`` (in force units, ``/ 10``)."""
-    from hiddpg.envs.puckworld import discrete_matrices, lqr_gain
-
-    params = PuckTrajectory1().default_params()
-    A, B = (np.asarray(m, np.float64) for m in discrete_matrices(params))
-    B = B * float(params.force_max)  # normalised action
-    Q, gamma, w = np.diag([1.0, 1.0, 0.0, 0.0]), 0.95, 3.0 / 0.95
-    P = np.zeros((4, 4))
-    for _ in range(3000):
-        M = Q + gamma * P  # cost-to-go of the next state, its own cost included
-        K = np.linalg.solve(B.T @ M @ B + w * np.eye(2), B.T @ M @ A)
-        P = (A - B @ K).T @ M @ (A - B @ K) + w * K.T @ K
-    np.testing.assert_allclose(K * float(params.force_max), np.asarray(lqr_gain(params)),
-                               rtol=1e-5)
-    K_spec = np.asarray(lqr_gain(params))
-    np.testing.assert_allclose(K_spec[0], [4.255, 0.0, 2.509, 0.0], atol=1e-3)

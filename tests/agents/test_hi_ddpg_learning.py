@@ -15,8 +15,9 @@ goal 0.14, 0.30, 0.20, 0.02, 0.16, 0.07 from the reference. A random high level 
 longest* happened to pass then and fail now for seeds 0-2: 0.33, 0.71, 1.00.)
 
 Since session 6 the preset's high level chooses between its duration and holding the goal to
-the end (``hold_choice``): seeds 0-2 now return -7.7, -4.1, -7.5 with 0 switches each (as the
-reference; before: 1 switch in every seed), nearest goal 0.21, 0.08, 0.24.
+the end (:class:`~hiddpg.configs.HoldChoice`, ``agent.choice=hold``): seeds 0-2 now return
+-7.7, -4.1, -7.5 with 0 switches each (as the reference; before: 1 switch in every seed),
+nearest goal 0.21, 0.08, 0.24.
 """
 
 import jax

@@ -1,5 +1,5 @@
-"""HI-DDPG's diagnostic options (off in every preset): the reference controller as the low
-level, the time left as a high-level input, and holding a goal to the episode's end."""
+"""The reference controller as HI-DDPG's low level (a diagnostic override), the time left as the
+high level's input and holding a goal to the episode's end (:class:`HoldChoice`)."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from hiddpg.commands.eval import eval_keys
+from hiddpg.experiments.overrides import reference_low_level, with_first_action
 from hiddpg.presets import make_config
 from hiddpg.runs import make_trainer
-from hiddpg.train import seed_keys
+from hiddpg.train import Trainer, eval_keys, seed_keys
 
 SEEDS = [0, 1, 2, 3]
 BASE = ["agent.learning_starts=0", "agent.pretrain_episodes=0", "agent.high_learning_starts=1",
@@ -27,17 +27,20 @@ def _trainer(*sets: str):
 
 def _segments(buf) -> dict[str, np.ndarray]:
     n = int(np.asarray(buf.size)[0])
-    return {k: np.asarray(v)[0, :n] for k, v in buf.data.items()}
+    names = {"s": "obs", "a": "action", "s2": "next_obs"}
+    return {k: np.asarray(getattr(buf.data, f))[0, :n] for k, f in names.items()}
 
 
 def test_the_reference_low_level_tracks_the_reference_plan_exactly_and_learns_nothing():
-    trainer = _trainer("agent.low_controller=reference")
+    config = make_config("hi-ddpg", "PuckTrajectory1", "quick", BASE)
+    trainer = Trainer(config, override=reference_low_level)
     agent, params = trainer.agent, trainer.env_params
     state = trainer.init_seeds(seed_keys([0]))
     goal = agent.env.goal_space.unscale(jnp.asarray(params.goals[0]))
-    first = jnp.concatenate([goal, agent.duration_unit(jnp.asarray(30.0))[None]])
+    first = jnp.concatenate([goal, agent.choice.duration_unit(jnp.asarray(30.0))[None]])
     one = jax.tree.map(lambda x: x[0], state.agent)
-    metrics, _ = jax.jit(agent.evaluate)(eval_keys(0, [0])[0], one, params, first)
+    probe = with_first_action(agent, first)
+    metrics, _ = jax.jit(probe.evaluate)(eval_keys(0, [0])[0], one, params)
     assert abs(float(metrics["env_return"])) < 1e-3  # the reference trajectory, step by step
     assert float(metrics["switches"]) == 0
     before = jax.tree.map(np.asarray, state.agent.low.block.actor)  # the chunk donates state
@@ -50,15 +53,16 @@ def test_the_reference_low_level_tracks_the_reference_plan_exactly_and_learns_no
 
 
 def test_environments_without_a_reference_controller_refuse_it():
-    config = make_config("hi-ddpg", "ArmObstacle", "quick", ["agent.low_controller=reference"])
-    with pytest.raises(ValueError, match="reference_controller"):
-        make_trainer(config)
-    with pytest.raises(ValueError, match="'learned' or 'reference'"):
-        make_config("hi-ddpg", "PuckTrajectory1", "quick", ["agent.low_controller=lqr"])
+    config = make_config("hi-ddpg", "ArmObstacle", "quick")
+    with pytest.raises(ValueError, match="has no reference_controller"):
+        Trainer(config, override=reference_low_level)
+    ddpg = make_config("ddpg", "PuckTrajectory1", "quick")
+    with pytest.raises(ValueError, match="replaces HI-DDPG's, not DDPGAgent's"):
+        Trainer(ddpg, override=reference_low_level)
 
 
 def test_the_high_level_sees_the_fraction_of_the_episode_left():
-    trainer = _trainer("agent.high_time_input=true")
+    trainer = _trainer("agent.choice=hold", "agent.choice.explore=0")
     agent = trainer.agent
     state, _, _ = trainer.run_chunk_seeds(trainer.init_seeds(seed_keys([0])), 2)
     seg = _segments(state.agent.high.buffer)
@@ -74,7 +78,7 @@ def test_the_high_level_sees_the_fraction_of_the_episode_left():
 
 
 def test_hold_exploration_always_holds_the_first_goal_to_the_end():
-    trainer = _trainer("agent.high_time_input=true", "agent.hold_explore=1.0")
+    trainer = _trainer("agent.choice=hold", "agent.choice.explore=1.0")
     state, train_m, _ = trainer.run_chunk_seeds(trainer.init_seeds(seed_keys([0])), 2)
     np.testing.assert_array_equal(np.asarray(train_m["switches"]), 0)
     seg = _segments(state.agent.high.buffer)
@@ -99,7 +103,7 @@ def _first_segment_lengths(traj) -> np.ndarray:
 def test_hold_choice_holds_exactly_when_the_critic_prefers_it():
     """At the start state the critic compares the actor's (g, T) with (g, hold to the end);
     negating the critic flips every comparison, so each seed is tested on both sides."""
-    trainer, plain = _trainer("agent.hold_choice=true"), _trainer("agent.hold_choice=false")
+    trainer = _trainer("agent.choice=hold")
     agent = trainer.agent
     keys = eval_keys(0, SEEDS)
     state = trainer.init_seeds(seed_keys(SEEDS))
@@ -108,12 +112,12 @@ def test_hold_choice_holds_exactly_when_the_critic_prefers_it():
     prefer = []
     for st in (state, _negated_critic(state)):
         _, traj = trainer.evaluate_seeds(st, keys)
-        _, traj_plain = plain.evaluate_seeds(st, keys)
-        obs0 = jax.vmap(lambda o: agent.high_obs(o, jnp.asarray(30), 30))(traj["obs"][:, 0])
+        obs0 = jax.vmap(lambda o: agent.choice.inputs(o, jnp.asarray(30), 30))(traj["obs"][:, 0])
         own = act(st.agent.high, obs0)
-        hold = own.at[:, -1].set(agent.duration_unit(jnp.asarray(30.0)))
+        hold = own.at[:, -1].set(agent.choice.duration_unit(jnp.asarray(30.0)))
         prefers = np.asarray(q(st.agent.high, obs0, hold) > q(st.agent.high, obs0, own))
-        own_len = _first_segment_lengths(traj_plain)
+        _, own_t = jax.vmap(agent.decode)(own)  # the actor's own first duration
+        own_len = np.clip(np.round(np.asarray(own_t)), 1, 30).astype(int)
         assert np.all(own_len < 30)  # the actor's own first duration is shorter
         np.testing.assert_array_equal(_first_segment_lengths(traj),
                                       np.where(prefers, 30, own_len))

@@ -1,6 +1,7 @@
-"""Hindsight actions for the high level: a segment enters D_H with the goal its low level
-reached (HAC's hindsight action transitions) in about the given fraction of segments; a
-segment that ended in a collision keeps the goal that led to it."""
+"""Hindsight actions for the high level (:class:`~hiddpg.configs.ActionHindsight`): a segment
+enters D_H with the goal its low level reached (HAC's hindsight action transitions) in about
+the given fraction (``probability``) of segments; a segment that ended in a collision keeps the
+goal that led to it."""
 
 from __future__ import annotations
 
@@ -17,14 +18,14 @@ def _high_buffer(fraction: float, episodes: int = 12, *sets: str):
     throughout, no learning): the stored goal entries (unit box) and the goal entries of each
     segment's last state, unit-scaled and clipped like the relabelled goals."""
     sets = ["agent.learning_starts=100000", "agent.pretrain_episodes=0",
-            f"eval_every={episodes}", f"agent.high_hindsight={fraction}", *sets]
+            f"eval_every={episodes}", f"agent.high_hindsight.probability={fraction}", *sets]
     trainer = make_trainer(make_config("hi-ddpg", "ArmObstacle", "quick", sets))
     state, _, _ = trainer.run_chunk_seeds(trainer.init_seeds(seed_keys([0])), episodes)
     buf, space = state.agent.high.buffer, trainer.env.goal_space
     n = int(np.asarray(buf.size)[0])
-    stored = np.asarray(buf.data["a"])[0, :n, : space.dim]
-    reached = np.clip(np.asarray(space.unscale(space.select(buf.data["s2"][0, :n]))), -1, 1)
-    collided = np.asarray(buf.data["r"])[0, :n] < -50  # the collision reward is -100
+    stored = np.asarray(buf.data.action)[0, :n, : space.dim]
+    reached = np.clip(np.asarray(space.unscale(space.select(buf.data.next_obs[0, :n]))), -1, 1)
+    collided = np.asarray(buf.data.reward)[0, :n] < -50  # the collision reward is -100
     return stored, reached, collided
 
 
@@ -55,5 +56,7 @@ def test_about_the_fraction_is_relabelled():
 
 
 def test_the_fraction_must_be_a_probability():
-    with pytest.raises(ValueError, match=r"high_hindsight=-0.1 must be a probability in \[0, 1\]"):
-        make_config("hi-ddpg", "ArmObstacle", "quick", ["agent.high_hindsight=-0.1"])
+    with pytest.raises(ValueError,
+                       match=r"ActionHindsight.probability=-0.1 must lie in \[0, 1\]"):
+        make_config("hi-ddpg", "ArmObstacle", "quick",
+                    ["agent.high_hindsight.probability=-0.1"])

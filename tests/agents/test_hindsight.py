@@ -10,6 +10,7 @@ import pytest
 
 from hiddpg.agents import buffer
 from hiddpg.agents.hindsight import Hindsight
+from hiddpg.agents.transition import Transition, example
 from hiddpg.envs.base import GoalSpace
 from hiddpg.presets import make_config
 from hiddpg.runs import make_trainer
@@ -19,25 +20,22 @@ SPACE = GoalSpace((0, 1), (-50.0, -50.0), (50.0, 50.0))
 SET_GOAL = 100.0  # the goal "the high level set" in the hand-made buffers
 
 
-def _reward(s2, g, a):
-    return -jnp.linalg.norm(s2[:2] - g[:2]) - jnp.sum(a)
+def _reward(s2, g):
+    return -jnp.linalg.norm(s2[:2] - g[:2])
 
 
 def _buffer(episodes: list[int], capacity: int):
     """Episodes of the given lengths, written in order; ``s2`` at step k of episode e is
     ``(10 e + k + 1, -(10 e + k + 1))``; the time limit is 6 steps, so a length under 6 is an
     early end (a collision)."""
-    h = Hindsight(0.5, SPACE, 4, _reward)
-    example = {"s": jnp.zeros(4), "c": jnp.zeros(4), "a": jnp.zeros(2), "r": jnp.zeros(()),
-               "s2": jnp.zeros(4), "terminated": jnp.zeros((), bool), **h.fields()}
-    buf = buffer.init(example, capacity)
+    buf = buffer.init(example(4, 2, 4, hindsight=True), capacity)
     for e, length in enumerate(episodes):
         for k in range(length):
             v = 10.0 * e + k + 1
-            buf = buffer.add(buf, {"s": jnp.zeros(4), "c": jnp.array([SET_GOAL, 0, 0, 0]),
-                                   "a": jnp.full(2, 0.25), "r": -1.0,
-                                   "s2": jnp.array([v, -v, 0.0, 0.0]),
-                                   "terminated": False, "ep": e, "left": 5 - k})
+            buf = buffer.add(buf, Transition(
+                obs=jnp.zeros(4), context=jnp.array([SET_GOAL, 0, 0, 0]),
+                action=jnp.full(2, 0.25), reward=-1.0, next_obs=jnp.array([v, -v, 0.0, 0.0]),
+                terminated=False, episode=e, steps_left=5 - k))
     return buf
 
 
@@ -46,21 +44,21 @@ def test_relabelled_goals_are_reached_later_in_the_same_episode(episodes, capaci
     buf = _buffer(episodes, capacity)
     tr = Hindsight(0.5, SPACE, 4, _reward).sample(buf, jax.random.PRNGKey(3), 4000)
     tr = jax.tree.map(np.asarray, tr)
-    used = tr["c"][:, 0] != SET_GOAL
+    used = tr.context[:, 0] != SET_GOAL
     assert 0.46 < used.mean() < 0.54
     # kept transitions are untouched
-    np.testing.assert_array_equal(tr["r"][~used], -1.0)
+    np.testing.assert_array_equal(tr.reward[~used], -1.0)
     # a relabelled goal is a later s2 of the same episode (episode e's values lie in 10e+1..)
-    g, s2 = tr["c"][used], tr["s2"][used]
+    g, s2 = tr.context[used], tr.next_obs[used]
     offset = g[:, 0] - s2[:, 0]
     assert offset.min() == 0
-    assert np.all(offset <= tr["left"][used])
+    assert np.all(offset <= tr.steps_left[used])
     assert np.all((g[:, 0] - 1) // 10 == (s2[:, 0] - 1) // 10)
     np.testing.assert_array_equal(g[:, 1], -g[:, 0])  # both goal entries from the same state
     np.testing.assert_array_equal(g[:, 2:], 0.0)  # entries outside the goal space stay 0
     # the reward is recomputed for the new goal
-    expected = -np.hypot(offset, offset) - 0.5
-    np.testing.assert_allclose(tr["r"][used], expected, rtol=1e-6)
+    expected = -np.hypot(offset, offset)
+    np.testing.assert_allclose(tr.reward[used], expected, rtol=1e-6)
     # every offset the episode allows is drawn
     assert set(np.unique(offset).astype(int)) == set(range(6))
 
@@ -71,14 +69,14 @@ def test_an_episode_cut_short_or_overwritten_falls_back_to_its_own_next_state():
     buf = _buffer([6, 3, 6], 32)
     tr = jax.tree.map(np.asarray,
                       Hindsight(1.0, SPACE, 4, _reward).sample(buf, jax.random.PRNGKey(0), 4000))
-    short = (tr["s2"][:, 0] > 10) & (tr["s2"][:, 0] < 20)
-    assert np.all(tr["c"][short, 0] < 20)
-    last = tr["s2"][:, 0] == 13  # episode 1's last step: only itself
-    np.testing.assert_array_equal(tr["c"][last, 0], 13.0)
+    short = (tr.next_obs[:, 0] > 10) & (tr.next_obs[:, 0] < 20)
+    assert np.all(tr.context[short, 0] < 20)
+    last = tr.next_obs[:, 0] == 13  # episode 1's last step: only itself
+    np.testing.assert_array_equal(tr.context[last, 0], 13.0)
     # the newest transition has nothing written after it
-    newest = tr["s2"][:, 0] == 26
+    newest = tr.next_obs[:, 0] == 26
     assert newest.any()
-    np.testing.assert_array_equal(tr["c"][newest, 0], 26.0)
+    np.testing.assert_array_equal(tr.context[newest, 0], 26.0)
 
 
 def test_fraction_zero_is_the_plain_sample():
@@ -86,26 +84,27 @@ def test_fraction_zero_is_the_plain_sample():
     key = jax.random.PRNGKey(5)
     plain = buffer.sample(buf, jax.random.split(key, 3)[0], 64)
     tr = Hindsight(0.0, SPACE, 4, _reward).sample(buf, key, 64)
-    for k, v in plain.items():
-        np.testing.assert_array_equal(np.asarray(tr[k]), np.asarray(v))
+    assert jax.tree.structure(tr) == jax.tree.structure(plain)
+    for a, b in zip(jax.tree.leaves(tr), jax.tree.leaves(plain), strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
 
 
 def test_hi_ddpg_stores_the_episode_and_the_steps_left():
     sets = ["agent.learning_starts=0", "agent.pretrain_episodes=0", "eval_every=2",
-            "agent.low_hindsight=0.8"]
+            "agent.low_hindsight.fraction=0.8"]
     trainer = make_trainer(make_config("hi-ddpg", "PuckTrajectory1", "quick", sets))
     state, _, _ = trainer.run_chunk_seeds(trainer.init_seeds(seed_keys([0])), 2)
     buf = state.agent.low.buffer
     n = int(np.asarray(buf.size)[0])
     assert n == 60
-    ep, left = np.asarray(buf.data["ep"])[0, :n], np.asarray(buf.data["left"])[0, :n]
+    ep, left = np.asarray(buf.data.episode)[0, :n], np.asarray(buf.data.steps_left)[0, :n]
     np.testing.assert_array_equal(ep, np.repeat([0, 1], 30))
     np.testing.assert_array_equal(left, np.tile(np.arange(29, -1, -1), 2))
 
 
 def test_the_fraction_must_be_a_probability():
-    with pytest.raises(ValueError, match=r"low_hindsight=1.5 must be a probability in \[0, 1\]"):
-        make_config("hi-ddpg", "PuckTrajectory1", "quick", ["agent.low_hindsight=1.5"])
+    with pytest.raises(ValueError, match=r"GoalHindsight.fraction=1.5 must lie in \[0, 1\]"):
+        make_config("hi-ddpg", "PuckTrajectory1", "quick", ["agent.low_hindsight.fraction=1.5"])
 
 
 GOALS = ((1.5, 0.35), (-0.5, 1.0), (2.0, -1.5), (0.5, 2.0))
@@ -139,6 +138,6 @@ def test_hindsight_goals_teach_the_low_level_to_reach_much_sooner():
     goals ends within about 0.3 of goals it was not trained on in particular (measured:
     mean 0.26; without: 1.1, the puck passing or falling short of its goal)."""
     plain = _reach_errors()
-    hindsight = _reach_errors("agent.low_hindsight=0.5")
+    hindsight = _reach_errors("agent.low_hindsight.fraction=0.5")
     assert hindsight.mean() < 0.4, hindsight
     assert plain.mean() > 2 * hindsight.mean(), (plain, hindsight)

@@ -27,6 +27,7 @@ from hiddpg.agents.model_grad import (
     model_gradient,
 )
 from hiddpg.agents.networks import MLP, Actor, Critic
+from hiddpg.agents.transition import Transition, example
 from hiddpg.configs import LevelConfig
 
 N, A_LOW, A_HIGH = 4, 2, 3  # state size; low action (force), high action (2 goal entries + T)
@@ -70,8 +71,8 @@ def _random_state(kind: str, seed: int = 0):
                    block.critic_tx.init(critic)), lr, lr)
     params = _random_params(shapes.model.params, rng)
     model_state = model.set_learning_rate(ModelState(params, model.optimizer.init(params)), lr)
-    state = LevelState(block_state, model_state,
-                       buffer.init(level.example_transition(), level.config.buffer_size))
+    tr = example(level.state_dim, level.action_dim, level.context_dim)
+    state = LevelState(block_state, model_state, buffer.init(tr, level.config.buffer_size))
     assert jax.tree_util.tree_structure(state) == jax.tree_util.tree_structure(shapes)
     inputs = jnp.asarray(rng.normal(size=(B, level.state_dim + level.context_dim)), jnp.float32)
     actions = jnp.asarray(rng.uniform(-0.9, 0.9, (B, level.action_dim)), jnp.float32)
@@ -265,11 +266,12 @@ def test_level_update_with_model_weight_zero_is_the_plain_ddpg_update(kind):
     n, c, na, cap = level0.state_dim, level0.context_dim, level0.action_dim, 32
 
     rng = np.random.default_rng(5)
-    tr = {"s": rng.normal(size=(cap, n)), "c": rng.normal(size=(cap, c)),
-          "a": rng.uniform(-1, 1, (cap, na)), "r": rng.normal(size=cap),
-          "s2": rng.normal(size=(cap, n)), "terminated": np.arange(cap) % 5 == 0}
-    tr = {k: jnp.asarray(v, jnp.float32 if v.dtype == np.float64 else v.dtype)
-          for k, v in tr.items()}
+    tr = Transition(obs=rng.normal(size=(cap, n)), context=rng.normal(size=(cap, c)),
+                    action=rng.uniform(-1, 1, (cap, na)), reward=rng.normal(size=cap),
+                    next_obs=rng.normal(size=(cap, n)), terminated=np.arange(cap) % 5 == 0)
+    tr = jax.tree.map(lambda v: jnp.asarray(v, jnp.float32 if v.dtype == np.float64
+                                            else v.dtype), tr)
+    episode = jnp.zeros((), jnp.int32)
 
     @jax.jit
     def run(state, tr, key):
@@ -277,13 +279,11 @@ def test_level_update_with_model_weight_zero_is_the_plain_ddpg_update(kind):
         state = state.replace(buffer=buf)
         # the plain DDPG step of the block on the minibatch Level.update draws
         batch = buffer.sample(buf, key, level0.config.batch_size)
-        plain = level0.block.update(state.block, {
-            "obs": jnp.concatenate([batch["s"], batch["c"]], -1), "action": batch["a"],
-            "reward": batch["r"], "next_obs": jnp.concatenate([batch["s2"], batch["c"]], -1),
-            "terminated": batch["terminated"]})
-        before = level0.model.loss(state.model.params, batch["s"], batch["a"], batch["s2"])
-        return (state, level0.update(state, key), plain, before, level1.update(state, key),
-                level_wo.update(state, key))
+        plain = level0.block.update(state.block, batch)
+        before = level0.model.loss(state.model.params, batch.obs, batch.action, batch.next_obs)
+        return (state, level0.update(state, key, episode=episode), plain, before,
+                level1.update(state, key, episode=episode),
+                level_wo.update(state, key, episode=episode))
 
     state, (new, m), (plain, plain_m), before, (new1, _), (new_wo, m_wo) = run(
         state, tr, jax.random.PRNGKey(7))

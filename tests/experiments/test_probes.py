@@ -7,11 +7,10 @@ import functools
 import numpy as np
 import pytest
 
-from hiddpg.commands.eval import eval_keys
 from hiddpg.experiments.probes import first_segment
 from hiddpg.presets import make_config
 from hiddpg.runs import make_trainer
-from hiddpg.train import seed_keys
+from hiddpg.train import eval_keys, seed_keys
 
 SEEDS = [0, 3]
 
@@ -48,7 +47,7 @@ def test_the_policy_is_the_hold_choice_on_either_side():
     """The preset holds where the critic prefers it; with the critic's sign flipped every
     choice flips, and the probe's policy still reproduces the evaluation exactly."""
     trainer, state = _setup()
-    assert trainer.agent.config.hold_choice
+    assert trainer.agent.config.choice.kind == "hold"
     keys = eval_keys(0, SEEDS)
     critic = state.agent.high.block.critic
     flipped = {"params": dict(critic["params"],

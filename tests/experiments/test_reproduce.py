@@ -16,6 +16,7 @@ import pytest
 
 from hiddpg.commands import plot as plot_cmd
 from hiddpg.commands import reproduce
+from hiddpg.configs import ActionHindsight, HuberLoss
 from hiddpg.experiments import comparison, report, stats
 from hiddpg.experiments.arm import outcomes
 from hiddpg.experiments.common import Context, ensure_run, expand_sets
@@ -260,22 +261,21 @@ def test_paper_scale_trajectory_runs_get_the_critic_durations_and_6000_episodes(
     paper, quick = Context(tmp_path, scale="paper"), Context(tmp_path, scale="quick")
     for task in ("PuckTrajectory1", "hiddpg/PuckTrajectory3-v0"):
         cfg = paper.config("hi-ddpg", task)
-        assert (cfg.episodes, cfg.agent.duration_choice) == (6000, "argmax")
+        assert (cfg.episodes, cfg.agent.choice.kind) == (6000, "critic-durations")
         assert cfg.agent.low.noise.decay_episodes == 6000
         assert paper.config("ddpg", task).episodes == 6000  # the budget, not the sets
         small = quick.config("hi-ddpg", task)
-        assert (small.episodes, small.agent.duration_choice, small.agent.hold_choice) == (
-            1500, "actor", True)
+        assert (small.episodes, small.agent.choice.kind) == (1500, "hold")
     for task in ("PuckObstacle", "ArmObstacle"):
         cfg = paper.config("hi-ddpg", task)
-        assert (cfg.episodes, cfg.agent.duration_choice) == (3000, "actor")
+        assert (cfg.episodes, cfg.agent.choice.kind) == (3000, "actor")
     # ArmObstacle: hindsight actions and the Huber high critic for both HI-DDPG variants only
     for algo in ("hi-ddpg", "hi-ddpg-wo-model"):
         agent = paper.config(algo, "ArmObstacle").agent
-        assert (agent.high_hindsight, agent.high.huber_delta, agent.low.huber_delta) == (
-            1.0, 10.0, 0.0)
-        assert quick.config(algo, "ArmObstacle").agent.high.huber_delta == 0.0
-        assert paper.config(algo, "PuckObstacle").agent.high_hindsight == 0.0
+        assert (agent.high_hindsight, agent.high.huber, agent.low.huber) == (
+            ActionHindsight(1.0), HuberLoss(10.0, 3.0, 2160), None)
+        assert quick.config(algo, "ArmObstacle").agent.high.huber is None
+        assert paper.config(algo, "PuckObstacle").agent.high_hindsight is None
     row = [r for r in budget_table().splitlines() if "PuckTrajectory1-3" in r]
-    assert len(row) == 1 and "duration_choice=argmax" in row[0]
+    assert len(row) == 1 and "choice=critic-durations" in row[0]
     assert report.parse_numbers(row[0])[2:4] == [15, 6000]  # after PuckTrajectory1-3

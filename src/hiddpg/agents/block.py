@@ -22,7 +22,7 @@ decayed inside ``jit`` with :meth:`DDPGBlock.set_learning_rates`.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -32,11 +32,10 @@ import optax
 from flax import struct
 
 from hiddpg.agents.networks import Actor, Critic
+from hiddpg.agents.transition import Transition
 
 #: extra action gradient ``(obs, a) -> array shaped like a`` added to ``dQ/da``.
 ExtraDqDa = Callable[[jax.Array, jax.Array], jax.Array]
-
-Batch = Mapping[str, jax.Array]
 
 
 @struct.dataclass
@@ -69,9 +68,6 @@ def with_learning_rate(opt_state: Any, lr: jax.Array | float) -> Any:
     return opt_state._replace(hyperparams=hyper)
 
 
-_with_lr = with_learning_rate  # backwards-compatible private name
-
-
 def invert_gradients(dq_da: jax.Array, action: jax.Array) -> jax.Array:
     """Hausknecht & Stone (2016): scale an action gradient that points towards a bound of the
     unit box by the distance left to it, ``(1 − a)/2`` upwards and ``(a + 1)/2`` downwards, so
@@ -95,15 +91,6 @@ class DDPGBlock:
         action_l2: weight of a penalty ``action_l2 · |μ(s)|²`` on the unit action in the actor's
             objective (as in Andrychowicz et al. 2017's DDPG), keeping ``tanh`` out of
             saturation [decision; 0 = plain DDPG].
-        huber_delta: the critic's loss is the Huber loss with this ``δ`` (squared within ``δ``
-            of the target, linear beyond) instead of the squared TD error [decision; 0 = the
-            squared error, DDPG's].
-        terminal_head: the critic has two heads, ``Q = Q_run + Q_term``: ``Q_term`` learns
-            the rewards of terminating steps (the arm's collision, −100), ``Q_run`` all the
-            others; rewards come in pairs ``(r_run, r_term)`` and both heads bootstrap on their
-            own head of ``Q'(s', μ'(s'))``. ``huber_delta`` applies to ``Q_run`` only; ``Q_term``
-            keeps the squared error, whose fit is the expected terminal reward (probability ×
-            penalty) [decision; False = one value, DDPG's].
     """
 
     obs_dim: int
@@ -115,8 +102,6 @@ class DDPGBlock:
     tau: float
     invert_gradients: bool = False
     action_l2: float = 0.0
-    huber_delta: float = 0.0
-    terminal_head: bool = False
     actor_net: Actor = field(init=False, repr=False, compare=False)
     critic_net: Critic = field(init=False, repr=False, compare=False)
     actor_tx: optax.GradientTransformation = field(init=False, repr=False, compare=False)
@@ -131,14 +116,14 @@ class DDPGBlock:
         if not hidden or any(not isinstance(n, int) or n <= 0 for n in hidden):
             raise ValueError(f"DDPGBlock.hidden={self.hidden!r} must be positive ints")
         for name, lo, hi in (("actor_lr", 0, None), ("critic_lr", 0, None),
-                             ("gamma", 0, 1), ("tau", 0, 1), ("huber_delta", 0, None)):
+                             ("gamma", 0, 1), ("tau", 0, 1)):
             v = getattr(self, name)
             if not (v >= lo and (hi is None or v <= hi)):
                 raise ValueError(f"DDPGBlock.{name}={v!r} out of range [{lo}, {hi or 'inf'}]")
         setattr_ = object.__setattr__
         setattr_(self, "hidden", hidden)
         setattr_(self, "actor_net", Actor(hidden, self.action_dim))
-        setattr_(self, "critic_net", Critic(hidden, heads=2 if self.terminal_head else 1))
+        setattr_(self, "critic_net", Critic(hidden))
         setattr_(self, "actor_tx", _adam(self.actor_lr))
         setattr_(self, "critic_tx", _adam(self.critic_lr))
 
@@ -166,57 +151,34 @@ class DDPGBlock:
         return self.mu(state.actor, obs)
 
     def q(self, critic_params: Any, obs: jax.Array, action: jax.Array) -> jax.Array:
-        """``Q(s, a|θ^Q)``: shape ``obs.shape[:-1]`` (with ``terminal_head``, the heads' sum)."""
-        q = self.critic_net.apply(critic_params, obs, action)
-        return jnp.sum(q, axis=-1) if self.terminal_head else q
-
-    def q_heads(self, critic_params: Any, obs: jax.Array, action: jax.Array) -> jax.Array:
-        """The critic's raw output: ``Q`` (shape ``obs.shape[:-1]``), or with
-        ``terminal_head`` the pair ``(Q_run, Q_term)`` on a last axis of 2."""
+        """``Q(s, a|θ^Q)``: shape ``obs.shape[:-1]``."""
         return self.critic_net.apply(critic_params, obs, action)
 
     # -- critic (eq. 3) -----------------------------------------------------------------------
-    def target(self, state: BlockState, batch: Batch) -> jax.Array:
-        """``y = r + γ (1 − terminated) Q'(s', μ'(s'))``; ``batch["discount"]`` (if present)
-        replaces ``γ`` per sample, ``batch["next_q"]`` (if present) the next state's value
-        ``Q'(s', μ'(s'))``. No gradient flows through ``y``. With ``terminal_head`` the
-        rewards, the values and ``y`` are pairs ``(run, term)`` on a last axis."""
-        next_obs = batch["next_obs"]
-        if "next_q" in batch:
-            if self.terminal_head:
-                raise ValueError("DDPGBlock.terminal_head takes no batch['next_q'] (a single "
-                                 "value per sample); bootstrap on the target critic")
-            next_q = batch["next_q"]
-        else:
-            next_q = self.q_heads(state.target_critic, next_obs,
-                                  self.mu(state.target_actor, next_obs))
-        discount = batch["discount"] if "discount" in batch else self.gamma
-        not_done = 1.0 - jnp.asarray(batch["terminated"], jnp.float32)
-        scale = discount * not_done
-        if self.terminal_head:
-            scale = jnp.asarray(scale)[..., None]
-        return jax.lax.stop_gradient(batch["reward"] + scale * next_q)
+    def target(self, state: BlockState, batch: Transition,
+               next_q: jax.Array | None = None) -> jax.Array:
+        """``y = r + γ (1 − terminated) Q'(s', μ'(s'))``; ``next_q``, if given, replaces the
+        next state's value ``Q'(s', μ'(s'))``. No gradient flows through ``y``."""
+        if next_q is None:
+            next_obs = batch.next_inputs
+            next_q = self.q(state.target_critic, next_obs, self.mu(state.target_actor, next_obs))
+        not_done = 1.0 - jnp.asarray(batch.terminated, jnp.float32)
+        return jax.lax.stop_gradient(batch.reward + self.gamma * not_done * next_q)
 
-    def critic_update(self, state: BlockState, batch: Batch) -> tuple[BlockState, dict]:
-        """One Adam step on the mean squared TD error (the Huber loss with ``huber_delta``; with
-        ``terminal_head`` the sum of both heads' losses).
-        Batch keys: ``obs, action, reward, next_obs, terminated`` (+ optional ``discount``, and
-        ``huber_delta``: this step's ``δ`` in place of the block's, which must be > 0).
-        Metrics: ``critic_loss`` (before the step), ``q_mean``."""
-        y = self.target(state, batch)
+    def critic_update(self, state: BlockState, batch: Transition, *,
+                      next_q: jax.Array | None = None,
+                      huber_delta: jax.Array | float | None = None) -> tuple[BlockState, dict]:
+        """One Adam step on the mean squared TD error, or with ``huber_delta`` the mean Huber
+        loss (:mod:`hiddpg.agents.huber`). Metrics: ``critic_loss`` (before the step),
+        ``q_mean``."""
+        y = self.target(state, batch, next_q)
+        inputs = batch.inputs
 
         def loss_fn(critic: Any) -> tuple[jax.Array, jax.Array]:
-            q = self.q_heads(critic, batch["obs"], batch["action"])
-            q_run, y_run = (q[..., 0], y[..., 0]) if self.terminal_head else (q, y)
-            if self.huber_delta > 0:
-                delta = batch.get("huber_delta", self.huber_delta)
-                loss = jnp.mean(optax.huber_loss(q_run, y_run, delta=delta))
-            else:
-                loss = jnp.mean((y_run - q_run) ** 2)
-            if self.terminal_head:
-                loss = loss + jnp.mean((y[..., 1] - q[..., 1]) ** 2)
-                q = jnp.sum(q, axis=-1)
-            return loss, q
+            q = self.q(critic, inputs, batch.action)
+            if huber_delta is not None:
+                return jnp.mean(optax.huber_loss(q, y, delta=huber_delta)), q
+            return jnp.mean((y - q) ** 2), q
 
         (loss, q), grads = jax.value_and_grad(loss_fn, has_aux=True)(state.critic)
         updates, opt = self.critic_tx.update(grads, state.critic_opt, state.critic)
@@ -292,12 +254,12 @@ class DDPGBlock:
                 state.critic_opt.hyperparams["learning_rate"])
 
     def update(
-        self, state: BlockState, batch: Batch, extra_dq_da: ExtraDqDa | None = None
+        self, state: BlockState, batch: Transition, extra_dq_da: ExtraDqDa | None = None
     ) -> tuple[BlockState, dict]:
         """The DDPG step of Alg. 1 (lines 10-12 / 17-19): critic update, then actor update on
-        ``batch["obs"]`` with the updated critic, then the soft target update."""
+        the batch's inputs with the updated critic, then the soft target update."""
         state, critic_metrics = self.critic_update(state, batch)
-        state, actor_metrics = self.actor_update(state, batch["obs"], extra_dq_da)
+        state, actor_metrics = self.actor_update(state, batch.inputs, extra_dq_da)
         return self.soft_update(state), {**critic_metrics, **actor_metrics}
 
 

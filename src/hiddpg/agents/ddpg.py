@@ -33,6 +33,7 @@ from hiddpg.agents import buffer as replay
 from hiddpg.agents import noise
 from hiddpg.agents.block import BlockState, DDPGBlock, value_terminal
 from hiddpg.agents.gate import gated
+from hiddpg.agents.transition import Transition, example
 from hiddpg.configs import DDPGConfig
 from hiddpg.envs.base import Environment, affine_unit
 
@@ -43,8 +44,8 @@ class DDPGState:
 
     Attributes:
         block: actor/critic parameters and optimiser states.
-        buffer: the replay buffer (keys ``obs, action, reward, next_obs, terminated``; the
-            action is stored in the unit box).
+        buffer: the replay buffer of :class:`~hiddpg.agents.transition.Transition` (the
+            action in the unit box).
         env_steps: int32, environment steps taken in this run (drives ``learning_starts``).
         episodes: int32, training episodes finished (drives the learning-rate decay).
     """
@@ -108,16 +109,11 @@ class DDPGAgent:
     def init(self, key: jax.Array, env_params: Any) -> DDPGState:
         """Fresh networks, an empty replay buffer and zero counters."""
         del env_params  # shapes come from the static env description
-        obs = jnp.zeros((self.env.obs_dim,), jnp.float32)
-        example = {
-            "obs": obs, "action": jnp.zeros((self.env.action_dim,), jnp.float32),
-            "reward": jnp.zeros((), jnp.float32), "next_obs": obs,
-            "terminated": jnp.zeros((), bool),
-        }
         zero = jnp.zeros((), jnp.int32)
         return DDPGState(
             block=self.block.init(key),
-            buffer=replay.init(example, self.config.buffer_size),
+            buffer=replay.init(example(self.env.obs_dim, self.env.action_dim),
+                               self.config.buffer_size),
             env_steps=zero, episodes=zero,
         )
 
@@ -149,11 +145,10 @@ class DDPGAgent:
             unit = jnp.where(learning, explore, random_action)
             res = self.env.step(k_env, carry.env_state, self.to_env_action(unit), env_params)
             next_obs = jnp.asarray(res.obs, jnp.float32)
-            transition = {
-                "obs": carry.obs, "action": unit,
-                "reward": jnp.asarray(res.reward, jnp.float32), "next_obs": next_obs,
-                "terminated": value_terminal(res, c.end_is_terminal),
-            }
+            transition = Transition(
+                obs=carry.obs, context=jnp.zeros((0,)), action=unit,
+                reward=jnp.asarray(res.reward, jnp.float32), next_obs=next_obs,
+                terminated=value_terminal(res, c.end_is_terminal))
             alive = carry.alive
             buf = replay.add(agent.buffer, transition, alive)
             do_update = alive & learning
@@ -176,7 +171,7 @@ class DDPGAgent:
                 env_state=_select(alive, res.state, carry.env_state),
                 noise=noise_state,
                 alive=alive & ~ended,
-                ret=carry.ret + jnp.where(alive, transition["reward"], 0.0),
+                ret=carry.ret + jnp.where(alive, transition.reward, 0.0),
                 length=carry.length + alive.astype(jnp.int32),
                 critic_loss=carry.critic_loss + closs,
                 actor_loss=carry.actor_loss + aloss,

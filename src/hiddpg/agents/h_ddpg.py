@@ -43,6 +43,7 @@ from hiddpg.agents.block import BlockState, DDPGBlock, value_terminal
 from hiddpg.agents.gate import gated
 from hiddpg.agents.networks import FINAL_INIT_SCALE, MLP
 from hiddpg.agents.skills import SkillPatterns, skill_patterns
+from hiddpg.agents.transition import Transition, example
 from hiddpg.configs import HDDPGConfig
 from hiddpg.envs.base import Environment
 
@@ -157,17 +158,17 @@ class HDDPG:
         return epsilon_schedule(episodes, c.epsilon_start, c.epsilon_end,
                                 c.epsilon_decay_episodes)
 
-    def meta_update(self, meta: MetaState, batch: dict) -> tuple[MetaState, jax.Array]:
+    def meta_update(self, meta: MetaState, batch: Transition) -> tuple[MetaState, jax.Array]:
         """One Adam step on ``(r + γ (1 − terminated) max_k' Q'(s', k') − Q(s, k))²``, then the
         Polyak update of the target network."""
         c = self.config
-        next_q = self.meta_q(meta.target, batch["next_obs"]).max(axis=-1)
-        not_done = 1.0 - batch["terminated"].astype(jnp.float32)
-        y = jax.lax.stop_gradient(batch["reward"] + c.meta_gamma * not_done * next_q)
+        next_q = self.meta_q(meta.target, batch.next_obs).max(axis=-1)
+        not_done = 1.0 - batch.terminated.astype(jnp.float32)
+        y = jax.lax.stop_gradient(batch.reward + c.meta_gamma * not_done * next_q)
 
         def loss_fn(params: Any) -> jax.Array:
-            q = self.meta_q(params, batch["obs"])
-            q_taken = jnp.take_along_axis(q, batch["skill"][:, None], axis=-1)[:, 0]
+            q = self.meta_q(params, batch.obs)
+            q_taken = jnp.take_along_axis(q, batch.action[:, None], axis=-1)[:, 0]
             return jnp.mean((y - q_taken) ** 2)
 
         loss, grads = jax.value_and_grad(loss_fn)(meta.params)
@@ -205,12 +206,9 @@ class HDDPG:
         c, k = self.config, self.n_skills
         k_skills, k_meta = jax.random.split(key)
         obs = jnp.zeros((self.env.obs_dim,), jnp.float32)
-        f0, b0 = jnp.zeros((), jnp.float32), jnp.zeros((), bool)
-        skill_example = {"obs": obs, "action": jnp.zeros((self.patterns.actor_dim,)),
-                         "reward": f0, "next_obs": obs, "terminated": b0}
+        skill_example = example(self.env.obs_dim, self.patterns.actor_dim)
         one = replay.init(skill_example, c.skill.buffer_size)
-        meta_example = {"obs": obs, "skill": jnp.zeros((), jnp.int32), "reward": f0,
-                        "next_obs": obs, "terminated": b0}
+        meta_example = skill_example.replace(action=jnp.zeros((), jnp.int32))
         params = self.meta_net.init(k_meta, obs)
         zero = jnp.zeros((), jnp.int32)
         return HDDPGState(
@@ -260,11 +258,12 @@ class HDDPG:
     def _store(self, agent, obs, skill, unit, reward, next_obs, terminated, alive):
         """Meta replay gets every step; skill ``k``'s replay only the steps it acted in."""
         alive = jnp.asarray(alive, bool)
-        common = {"obs": obs, "reward": reward, "next_obs": next_obs, "terminated": terminated}
+        tr = Transition(obs=obs, context=jnp.zeros((0,)), action=unit, reward=reward,
+                        next_obs=next_obs, terminated=terminated)
         chosen = alive & (jnp.arange(self.n_skills) == skill)
         skill_buffers = jax.vmap(replay.add, in_axes=(0, None, 0))(
-            agent.skill_buffers, dict(common, action=unit), chosen)
-        meta_buffer = replay.add(agent.meta_buffer, dict(common, skill=skill), alive)
+            agent.skill_buffers, tr, chosen)
+        meta_buffer = replay.add(agent.meta_buffer, tr.replace(action=skill), alive)
         return agent.replace(skill_buffers=skill_buffers, meta_buffer=meta_buffer,
                              env_steps=agent.env_steps + alive.astype(jnp.int32))
 

@@ -18,12 +18,12 @@ overshoot that still arrives is charged to where it arrived; HI-DDPG keeps the g
 a segment that ended the episode by a collision, so that the goals that lead into the obstacle
 stay charged with it [decision].
 
-Bookkeeping (low level): transitions carry ``ep`` (the agent's episode counter) and ``left``
-(steps left in the episode after this one, by the time limit). The buffer is written in time
-order per agent, so the transition ``k`` slots after slot ``i`` is ``k`` steps later in the
-same episode if its ``ep`` matches; where it does not (the episode ended early, by a
-collision, or the slot was not written yet), the transition keeps offset 0: its own next
-state as the goal.
+Bookkeeping (low level): transitions carry ``episode`` (the agent's episode counter) and
+``steps_left`` (steps left in the episode after this one, by the time limit). The buffer is
+written in time order per agent, so the transition ``k`` slots after slot ``i`` is ``k`` steps
+later in the same episode if its ``episode`` matches; where it does not (the episode ended
+early, by a collision, or the slot was not written yet), the transition keeps offset 0: its own
+next state as the goal.
 """
 
 from __future__ import annotations
@@ -36,6 +36,8 @@ import jax
 import jax.numpy as jnp
 
 from hiddpg.agents.buffer import ReplayBuffer
+from hiddpg.agents.transition import Transition
+from hiddpg.configs import ActionHindsight
 from hiddpg.envs.base import GoalSpace
 
 
@@ -47,37 +49,32 @@ class Hindsight:
         fraction: probability that a sampled transition gets a hindsight goal.
         goal_space: which state entries a goal fixes (:class:`GoalSpace`).
         obs_dim: size of the full goal vector.
-        reward: ``(s2, goal, a) -> r_int`` for one transition (``a`` the unit action).
+        reward: ``(s2, goal) -> r_int`` for one transition.
     """
 
     fraction: float
     goal_space: GoalSpace
     obs_dim: int
-    reward: Callable[[jax.Array, jax.Array, jax.Array], jax.Array]
+    reward: Callable[[jax.Array, jax.Array], jax.Array]
 
-    @staticmethod
-    def fields() -> dict[str, jax.Array]:
-        """The extra transition entries this needs (examples for the buffer)."""
-        return {"ep": jnp.zeros((), jnp.int32), "left": jnp.zeros((), jnp.int32)}
-
-    def sample(self, buf: ReplayBuffer, key: jax.Array, batch_size: int) -> dict[str, Any]:
+    def sample(self, buf: ReplayBuffer, key: jax.Array, batch_size: int) -> Transition:
         """A uniform minibatch of ``buf`` with hindsight goals in about ``fraction`` of it."""
         k_idx, k_use, k_off = jax.random.split(key, 3)
         capacity = buf.capacity
         idx = jax.random.randint(k_idx, (batch_size,), 0, jnp.maximum(buf.size, 1))
         tr = jax.tree_util.tree_map(lambda store: store[idx], buf.data)
         newer = jnp.mod(buf.pos - 1 - idx, capacity)  # slots written after idx
-        span = jnp.minimum(tr["left"], newer)
+        span = jnp.minimum(tr.steps_left, newer)
         offset = jnp.floor(jax.random.uniform(k_off, (batch_size,)) * (span + 1))
         j = jnp.mod(idx + offset.astype(jnp.int32), capacity)
-        same = buf.data["ep"][j] == tr["ep"]
+        same = buf.data.episode[j] == tr.episode
         j = jnp.where(same, j, idx)
-        reached = self.goal_space.embed(self.goal_space.select(buf.data["s2"][j]),
+        reached = self.goal_space.embed(self.goal_space.select(buf.data.next_obs[j]),
                                         self.obs_dim)
         use = jax.random.uniform(k_use, (batch_size,)) < self.fraction
-        goal = jnp.where(use[:, None], reached, tr["c"])
-        reward = jax.vmap(self.reward)(tr["s2"], reached, tr["a"])
-        return dict(tr, c=goal, r=jnp.where(use, reward, tr["r"]))
+        goal = jnp.where(use[:, None], reached, tr.context)
+        reward = jax.vmap(self.reward)(tr.next_obs, reached)
+        return tr.replace(context=goal, reward=jnp.where(use, reward, tr.reward))
 
 
 def reached_action(goal_space: GoalSpace, action: jax.Array, last_obs: jax.Array,
@@ -88,3 +85,17 @@ def reached_action(goal_space: GoalSpace, action: jax.Array, last_obs: jax.Array
     reached = jnp.clip(goal_space.unscale(goal_space.select(last_obs)), -1.0, 1.0)
     gd = goal_space.dim
     return action.at[:gd].set(jnp.where(use, reached, action[:gd]))
+
+
+def high_relabel(config: ActionHindsight | None, goal_space: GoalSpace):
+    """``(action, step result, key) -> action`` that ``D_H`` stores for a segment ending with
+    that step: with probability ``config.probability`` the goal reached (:func:`reached_action`)
+    unless the step terminated the episode; the action itself without ``config``."""
+    if config is None:
+        return lambda action, res, key: action
+
+    def relabel(action: jax.Array, res: Any, key: jax.Array) -> jax.Array:
+        use = (jax.random.uniform(key) < config.probability) & ~res.terminated
+        return reached_action(goal_space, action, res.obs, use)
+
+    return relabel

@@ -1,35 +1,38 @@
 """One level of HI-DDPG: a DDPG block, a dynamics model and a replay buffer (paper Fig. 2).
 
 Both levels have the same shape: the actor sees ``[s, c]`` — the state and a *context* (the
-goal for the low level, nothing for the high level) — and outputs a unit action; the model
-predicts the next state from ``(s, a)``; the value of a predicted next state ``x`` is
-``V(x) = Q([x, c], μ([x, c]))``. One update (paper Alg. 1 lines 12 and 16-20) is:
+goal for the low level; nothing for the paper's high level) — and outputs a unit action; the
+model predicts the next state from ``(s, a)``; the value of a predicted next state ``x`` is
+``V(x) = Q([x, c], μ([x, c]))``. One update (Alg. 1 lines 12 and 16-20) is:
 
 1. critic step on a minibatch (eq. 3 / eq. 5 with the discount of Alg. 1 line 17);
 2. actor step along ``∂Q/∂a + λ ∂V(ŝ')/∂ŝ' ∂ŝ'/∂a`` (eqs. 2, 4, 6, 7);
 3. model step (if the model is used);
 4. soft target update.
-
-Transitions stored: ``s, c, a, r, s2, terminated`` with ``s2`` the next state (and ``ep``,
-``left`` with hindsight goals, :mod:`hiddpg.agents.hindsight`); with ``terminal_head`` the
-reward ``r`` is the pair ``(r_run, r_term)`` (:attr:`DDPGBlock.terminal_head`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from typing import Any
 
 import jax
 import jax.numpy as jnp
 from flax import struct
 
-from hiddpg.agents import buffer
+from hiddpg.agents import buffer, huber
 from hiddpg.agents.block import BlockState, DDPGBlock
 from hiddpg.agents.gate import gated
 from hiddpg.agents.hindsight import Hindsight
 from hiddpg.agents.model_grad import DynamicsModel, ModelState, batched_model_gradient
+from hiddpg.agents.transition import Transition, example
 from hiddpg.configs import LevelConfig
+
+#: ``(block, block_state, next_obs) -> value`` of the critic target's next states.
+NextValue = Callable[[DDPGBlock, BlockState, jax.Array], jax.Array]
+#: ``(key, inputs) -> inputs``: the actor's batch rewritten.
+ActorInputs = Callable[[jax.Array, jax.Array], jax.Array]
 
 
 @struct.dataclass
@@ -46,13 +49,13 @@ class Level:
     Attributes:
         config: the level's hyper-parameters.
         state_dim: size of ``s`` (the observation).
-        context_dim: size of ``c`` (0 for the high level).
+        context_dim: size of ``c``.
         action_dim: size of the unit action.
         time_scale: the model's ``Δt`` (low level: the env's control period; high level: 1).
         model_weight: λ of the model-based gradient (0 switches the term off).
         use_model: whether the model is trained.
-        hindsight: hindsight goals for the minibatches (:mod:`hiddpg.agents.hindsight`;
-            the low level only), or None.
+        hindsight: hindsight goals for the minibatches (:mod:`hiddpg.agents.hindsight`), or
+            None.
     """
 
     config: LevelConfig
@@ -67,36 +70,27 @@ class Level:
     @property
     def block(self) -> DDPGBlock:
         c = self.config
-        return DDPGBlock(self.state_dim + self.context_dim, self.action_dim, tuple(c.hidden),
-                         c.lr, c.lr, c.gamma, c.tau, c.invert_gradients, c.action_l2,
-                         c.huber_delta, c.terminal_head)
+        return DDPGBlock(obs_dim=self.state_dim + self.context_dim, action_dim=self.action_dim,
+                         hidden=tuple(c.hidden), actor_lr=c.lr, critic_lr=c.lr, gamma=c.gamma,
+                         tau=c.tau, invert_gradients=c.invert_gradients, action_l2=c.action_l2)
 
     @property
     def model(self) -> DynamicsModel:
         return DynamicsModel(self.state_dim, self.action_dim, tuple(self.config.hidden),
                              self.config.lr, self.time_scale)
 
-    def example_transition(self) -> dict[str, jax.Array]:
-        z = lambda n: jnp.zeros((n,), jnp.float32)  # noqa: E731
-        example = {"s": z(self.state_dim), "c": z(self.context_dim), "a": z(self.action_dim),
-                   "r": z(2) if self.config.terminal_head else jnp.zeros(()),
-                   "s2": z(self.state_dim),
-                   "terminated": jnp.zeros((), bool)}
-        return example if self.hindsight is None else dict(example, **self.hindsight.fields())
-
     def init(self, key: jax.Array) -> LevelState:
         k_block, k_model = jax.random.split(key)
-        return LevelState(
-            block=self.block.init(k_block),
-            model=self.model.init(k_model),
-            buffer=buffer.init(self.example_transition(), self.config.buffer_size),
-        )
+        tr = example(self.state_dim, self.action_dim, self.context_dim,
+                     hindsight=self.hindsight is not None)
+        return LevelState(block=self.block.init(k_block), model=self.model.init(k_model),
+                          buffer=buffer.init(tr, self.config.buffer_size))
 
     def act(self, state: LevelState, s: jax.Array, c: jax.Array) -> jax.Array:
         """The noise-free unit action ``μ([s, c])``."""
         return self.block.act(state.block, jnp.concatenate([s, c], axis=-1))
 
-    def store(self, state: LevelState, transition: dict, mask: jax.Array) -> LevelState:
+    def store(self, state: LevelState, transition: Transition, mask: jax.Array) -> LevelState:
         return state.replace(buffer=buffer.add(state.buffer, transition, mask))
 
     def set_learning_rate(self, state: LevelState, lr: jax.Array) -> LevelState:
@@ -120,50 +114,47 @@ class Level:
         return lambda inputs, a: lam * batched_model_gradient(value, predict, inputs, a)
 
     # -- one update -------------------------------------------------------------------------
-    def update(self, state: LevelState, key: jax.Array, next_value: Any = None,
-               actor_inputs: Any = None, episode: Any = None) -> tuple[LevelState, dict]:
+    def sample(self, state: LevelState, key: jax.Array) -> Transition:
+        """A minibatch from the level's buffer (with hindsight goals, if any)."""
+        if self.hindsight is None:
+            return buffer.sample(state.buffer, key, self.config.batch_size)
+        return self.hindsight.sample(state.buffer, key, self.config.batch_size)
+
+    def update(self, state: LevelState, key: jax.Array, *, episode: jax.Array,
+               next_value: NextValue | None = None,
+               actor_inputs: ActorInputs | None = None) -> tuple[LevelState, dict]:
         """Critic, actor (with the model-based term), model and target updates on one batch.
 
-        ``next_value(block, block_state, s2)``, if given, is the critic target's value of the
-        next states (instead of ``Q'(s2, μ'(s2))``); ``actor_inputs(key, inputs)``, if given,
-        rewrites the actor's batch of ``[s, c]`` (:mod:`hiddpg.agents.durations`). ``episode``
-        (the agent's episode count) picks the critic's Huber ``δ`` when the config changes it
-        (``huber_delta_late``)."""
-        if self.hindsight is None:
-            tr = buffer.sample(state.buffer, key, self.config.batch_size)
-        else:
-            tr = self.hindsight.sample(state.buffer, key, self.config.batch_size)
-        inputs = jnp.concatenate([tr["s"], tr["c"]], axis=-1)
-        batch = {"obs": inputs, "action": tr["a"], "reward": tr["r"],
-                 "next_obs": jnp.concatenate([tr["s2"], tr["c"]], axis=-1),
-                 "terminated": tr["terminated"]}
-        c = self.config
-        if c.huber_delta_late > 0:
-            if episode is None:
-                raise ValueError("LevelConfig.huber_delta_late is set: Level.update needs the "
-                                 "episode count")
-            late = jnp.asarray(episode) >= c.huber_late_episode
-            batch["huber_delta"] = jnp.where(late, c.huber_delta_late, c.huber_delta)
-        block = self.block
-        if next_value is not None:
-            batch["next_q"] = next_value(block, state.block, tr["s2"])
-        block_state, critic_m = block.critic_update(state.block, batch)
+        ``next_value``, if given, values the critic target's next states instead of
+        ``Q'(s', μ'(s'))``; ``actor_inputs``, if given, rewrites the actor's batch of ``[s, c]``
+        (both: :mod:`hiddpg.agents.durations`). ``episode`` (the agent's count) sets the Huber
+        loss's ``δ`` where the config schedules it."""
+        tr = self.sample(state, key)
+        block, c = self.block, self.config
+        delta = None if c.huber is None else huber.delta_at(c.huber, episode)
+        next_q = None if next_value is None else next_value(block, state.block, tr.next_obs)
+        block_state, critic_m = block.critic_update(state.block, tr, next_q=next_q,
+                                                    huber_delta=delta)
         extra = self.extra_dq_da(block_state, state.model) if self.model_weight > 0 else None
+        inputs = tr.inputs
         if actor_inputs is not None:
             inputs = actor_inputs(jax.random.fold_in(key, 1), inputs)
         block_state, actor_m = block.actor_update(block_state, inputs, extra)
         block_state = block.soft_update(block_state)
         model_state, model_loss = state.model, jnp.zeros(())
         if self.use_model:
-            model_state, model_loss = self.model.update(state.model, tr["s"], tr["a"], tr["s2"])
+            model_state, model_loss = self.model.update(state.model, tr.obs, tr.action,
+                                                        tr.next_obs)
         metrics = {"critic_loss": critic_m["critic_loss"], "actor_loss": actor_m["actor_loss"],
                    "model_loss": model_loss}
         return state.replace(block=block_state, model=model_state), metrics
 
-    def maybe_update(self, state: LevelState, key: jax.Array, do: jax.Array,
-                     next_value: Any = None, actor_inputs: Any = None, episode: Any = None):
+    def maybe_update(self, state: LevelState, key: jax.Array, do: jax.Array, *,
+                     episode: jax.Array, next_value: NextValue | None = None,
+                     actor_inputs: ActorInputs | None = None) -> tuple[LevelState, dict]:
         """:meth:`update` if ``do`` else nothing (a branch even under the seed ``vmap``)."""
-        return gated(do, lambda s: self.update(s, key, next_value, actor_inputs, episode),
+        return gated(do, lambda s: self.update(s, key, episode=episode, next_value=next_value,
+                                               actor_inputs=actor_inputs),
                      lambda s: (s, zero_metrics()), state)
 
 

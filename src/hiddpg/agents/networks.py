@@ -78,13 +78,11 @@ class Critic(nn.Module):
 
     The observation enters the input layer; the action is concatenated to the output of the
     first hidden layer (after its ReLU). The output is linear and squeezed: shape ``(batch,)``
-    for batched inputs, ``()`` for single ones; with ``heads > 1`` one value per head on a last
-    axis (a value per reward component, :attr:`DDPGBlock.terminal_head`).
+    for batched inputs, ``()`` for single ones.
     """
 
     hidden: Sequence[int]
     final_init_scale: float = FINAL_INIT_SCALE
-    heads: int = 1
 
     @nn.compact
     def __call__(self, obs: jax.Array, action: jax.Array) -> jax.Array:
@@ -92,8 +90,7 @@ class Critic(nn.Module):
         x = jnp.concatenate([x, action], axis=-1)
         for i, size in enumerate(self.hidden[1:], start=1):
             x = nn.relu(_dense(size, f"hidden_{i}")(x))
-        out = _final(self.heads, self.final_init_scale)(x)
-        return out[..., 0] if self.heads == 1 else out
+        return _final(1, self.final_init_scale)(x)[..., 0]
 
 
 class MLP(nn.Module):

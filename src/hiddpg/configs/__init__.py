@@ -6,9 +6,11 @@ name the field, the bad value and what is allowed. Presets (``paper``, ``quick``
 :mod:`hiddpg.presets`; ``--set key=value`` overrides are applied by :func:`apply_overrides`.
 """
 
+from hiddpg.configs.choice import CHOICES, ActorChoice, CriticDurations, HoldChoice
 from hiddpg.configs.ddpg import DDPGConfig, LevelConfig, NoiseConfig
 from hiddpg.configs.h_ddpg import HDDPGConfig
 from hiddpg.configs.hi_ddpg import HIDDPGConfig
+from hiddpg.configs.parts import ActionHindsight, GoalHindsight, HuberLoss, RestTerm
 from hiddpg.configs.run import (
     ALGORITHMS,
     HI_DDPG_ALGORITHMS,
@@ -19,6 +21,7 @@ from hiddpg.configs.run import (
     to_dict,
 )
 
-__all__ = ["ALGORITHMS", "HI_DDPG_ALGORITHMS", "AgentConfig", "DDPGConfig", "HDDPGConfig",
-           "HIDDPGConfig", "LevelConfig", "NoiseConfig", "TrainConfig", "from_dict",
-           "register_config_type", "to_dict"]
+__all__ = ["ALGORITHMS", "CHOICES", "HI_DDPG_ALGORITHMS", "ActionHindsight", "ActorChoice",
+           "AgentConfig", "CriticDurations", "DDPGConfig", "GoalHindsight", "HDDPGConfig",
+           "HIDDPGConfig", "HoldChoice", "HuberLoss", "LevelConfig", "NoiseConfig", "RestTerm",
+           "TrainConfig", "from_dict", "register_config_type", "to_dict"]

@@ -7,7 +7,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Literal
 
-from hiddpg.configs.checks import buffer, hidden, nonnegative, positive, unit
+from hiddpg.configs.checks import buffer, hidden, positive, unit
+from hiddpg.configs.parts import HuberLoss
 
 
 @dataclass(frozen=True)
@@ -114,25 +115,9 @@ class LevelConfig:
     action_l2: float = 0.0
     """Penalty weight on the squared unit action in the actor's objective (Andrychowicz et
     al. 2017) [decision; 0 = the paper's plain DPG]."""
-    huber_delta: float = 0.0
-    """``δ > 0``: the level's critic minimises the Huber loss of its TD error (squared within
-    ``δ``, linear beyond), so that rare large errors — the arm's collisions, reward −100 —
-    pull its values less than the many small ones near the target [decision; 0 = the
-    squared error, DDPG's]."""
-    huber_delta_late: float = 0.0
-    """``δ > 0``: from episode ``huber_late_episode`` on, the Huber loss takes this ``δ`` in
-    place of ``huber_delta``. A large ``δ`` first lets the collisions' cost shape the values
-    (the detour), a small one later fits the small segment returns near the target precisely
-    (the arm's last goal) [decision; 0 = ``huber_delta`` throughout]."""
-    huber_late_episode: int = 0
-    """The episode (counted from 0, pre-training included) from which ``huber_delta_late``
-    applies."""
-    terminal_head: bool = False
-    """The critic learns the rewards of the steps that end the episode (the arm's collision,
-    −100) in a head of its own and the rest in another, ``Q = Q_run + Q_term``; ``huber_delta``
-    then applies to ``Q_run`` only, so a robust fit of the small segment returns no longer
-    blurs the collisions' cost (:attr:`DDPGBlock.terminal_head`). HI-DDPG's high level only
-    [decision; False = one value, the paper's]."""
+    huber: HuberLoss | None = None
+    """The critic's loss: the squared TD error (None) [paper], or the Huber loss
+    (:class:`~hiddpg.configs.parts.HuberLoss`) [decision]."""
     end_is_terminal: bool = False
     """No bootstrap at the end of any episode for this level's critic (as
     :attr:`DDPGConfig.end_is_terminal`; the presets set it on the high level of the
@@ -148,13 +133,3 @@ class LevelConfig:
         positive(self, "lr", "batch_size", "buffer_size")
         unit(self, "gamma", "tau")
         buffer(self)
-        nonnegative(self, "huber_delta", hint="0: the squared TD error")
-        nonnegative(self, "huber_delta_late", hint="0: huber_delta throughout")
-        if self.huber_delta_late > 0:
-            if self.huber_delta <= 0:
-                raise ValueError(f"LevelConfig.huber_delta_late={self.huber_delta_late} needs "
-                                 "huber_delta > 0 (the loss before the switch), not "
-                                 f"{self.huber_delta}")
-            if not (isinstance(self.huber_late_episode, int) and self.huber_late_episode >= 1):
-                raise ValueError(f"LevelConfig.huber_late_episode={self.huber_late_episode!r} "
-                                 "must be an int >= 1 when huber_delta_late is set")

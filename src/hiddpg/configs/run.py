@@ -8,9 +8,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from hiddpg.configs.checks import positive
+from hiddpg.configs.choice import CHOICES
 from hiddpg.configs.ddpg import DDPGConfig, LevelConfig, NoiseConfig
 from hiddpg.configs.h_ddpg import HDDPGConfig
 from hiddpg.configs.hi_ddpg import HIDDPGConfig
+from hiddpg.configs.parts import ActionHindsight, GoalHindsight, HuberLoss, RestTerm
 
 ALGORITHMS = ("ddpg", "hi-ddpg", "hi-ddpg-wo-model", "h-ddpg")
 HI_DDPG_ALGORITHMS = ("hi-ddpg", "hi-ddpg-wo-model")
@@ -69,7 +71,8 @@ def to_dict(cfg: Any) -> dict[str, Any]:
 
 
 _TYPES = {c.__name__: c for c in (NoiseConfig, DDPGConfig, LevelConfig, HIDDPGConfig,
-                                   HDDPGConfig, TrainConfig)}
+                                   HDDPGConfig, TrainConfig, HuberLoss, GoalHindsight,
+                                   ActionHindsight, RestTerm, *CHOICES)}
 
 
 def register_config_type(cls: type) -> type:
@@ -81,8 +84,16 @@ def register_config_type(cls: type) -> type:
 def from_dict(data: Any) -> Any:
     """Inverse of :func:`to_dict`."""
     if isinstance(data, dict) and "_type" in data:
+        if data["_type"] not in _TYPES:
+            raise ValueError(f"config type {data['_type']!r} is unknown to this version of "
+                             f"hiddpg; known: {sorted(_TYPES)}")
         cls = _TYPES[data["_type"]]
         kwargs = {k: from_dict(v) for k, v in data.items() if k != "_type"}
+        names = {f.name for f in dataclasses.fields(cls) if f.init}
+        unknown = sorted(set(kwargs) - names)
+        if unknown:
+            raise ValueError(f"{cls.__name__} has no field(s) {unknown} (a config written by "
+                             f"another version of hiddpg?); its fields: {sorted(names)}")
         for f in dataclasses.fields(cls):
             if f.name in kwargs and isinstance(kwargs[f.name], list):
                 kwargs[f.name] = _tuplify(kwargs[f.name])

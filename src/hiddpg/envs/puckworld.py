@@ -297,7 +297,7 @@ class _Puck(Environment):
     def reference_controller(self, obs: jax.Array, goal: jax.Array,
                              params: PuckParams) -> jax.Array:
         """:func:`reference_action` towards a full goal vector (HI-DDPG's
-        ``low_controller="reference"``)."""
+        :class:`hiddpg.experiments.overrides.ReferenceLowLevel`)."""
         return reference_action(obs, self.goal_space.select(goal), params)
 
 

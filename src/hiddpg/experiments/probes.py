@@ -6,7 +6,8 @@ first high-level action ``(g, T)`` at the start state; then, for each duration `
 for, it compares the critic's ``Q_H(s_0, (g, T'))`` with the truth: the high-level return
 ``f`` (environment reward minus the switch costs) of holding ``g`` for ``T'`` steps and then
 following the learned high level, with the run's own low level, noise-free — the evaluation
-episode (:meth:`HIDDPG.evaluate`) with its first action replaced. docs/results.md uses it to
+episode (:meth:`HIDDPG.evaluate`) with its first action replaced
+(:class:`~hiddpg.experiments.overrides.FirstAction`). docs/results.md uses it to
 show that the duration critic is wrong where its actor does not go
 (``scripts/first_segment.py`` prints the table).
 """
@@ -20,6 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from hiddpg.agents.hi_ddpg import HIDDPG
+from hiddpg.experiments.overrides import with_first_action
 
 
 def first_segment(trainer: Any, state: Any, keys: jax.Array, durations: Any,
@@ -28,9 +30,9 @@ def first_segment(trainer: Any, state: Any, keys: jax.Array, durations: Any,
     (also ``env_return``, ``goals``, the number of goals used, and ``first_goal``, the goal
     held first) of the first segment ``(g, T)``, ``g`` the actor's first goal (or ``goal``, in
     the goal space's units) and ``T`` each of ``durations``; ``policy`` holds each seed's own
-    first action decoded (``goal``, ``duration``; with ``hold_choice`` the duration the choice
+    first action decoded (``goal``, ``duration``; with the hold choice the duration the choice
     makes) with its critic value and return. ``keys``
-    are the evaluation keys (:func:`hiddpg.commands.eval.eval_keys`), so that the actor's own
+    are the evaluation keys (:func:`hiddpg.train.eval_keys`), so that the actor's own
     action reproduces the evaluation's return."""
     agent, params = trainer.agent, trainer.env_params
     if not isinstance(agent, HIDDPG):
@@ -40,22 +42,23 @@ def first_segment(trainer: Any, state: Any, keys: jax.Array, durations: Any,
     if bool(jnp.any((durations < c.duration_min) | (durations > c.duration_max))):
         raise ValueError(f"durations {np.asarray(durations).tolist()} must lie in "
                          f"[duration_min, duration_max] = [{c.duration_min}, {c.duration_max}]")
-    t_units = agent.duration_unit(durations)
+    t_units = agent.choice.duration_unit(durations)
     horizon = agent.env.max_steps(params)
     fixed = None if goal is None else space.unscale(jnp.asarray(goal, jnp.float32))
 
     def one(agent_state, key):
         obs, _ = agent.env.reset(jax.random.split(key)[0], params)  # evaluate's start state
-        obs = agent.high_obs(obs, jnp.asarray(horizon), horizon)  # the high level's input
-        own = agent.policy_action(agent_state, obs, jnp.asarray(horizon))
+        obs = agent.choice.inputs(obs, jnp.asarray(horizon), horizon)  # the high level's input
+        own = agent.choice.policy(agent_state.high, obs, jnp.asarray(horizon))
         base = own if fixed is None else own.at[: agent.goal_dim].set(fixed)
         actions = jnp.concatenate(
             [jnp.broadcast_to(base[: agent.goal_dim], (len(t_units), agent.goal_dim)),
              t_units[:, None]], axis=1)
-        q = jax.vmap(lambda a: agent.high_q(agent_state, obs, a))
+        q = jax.vmap(lambda a: agent.choice.q(agent_state.high, obs, a))
 
         def truth(first):
-            metrics, traj = agent.evaluate(key, agent_state, params, first)
+            probe = with_first_action(agent, first)
+            metrics, traj = probe.evaluate(key, agent_state, params)
             return {"return": metrics["return"], "env_return": metrics["env_return"],
                     "goals": metrics["switches"].astype(jnp.int32) + 1,
                     "first_goal": traj["goal"][0]}

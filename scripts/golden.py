@@ -1,0 +1,132 @@
+"""Golden metrics: short runs of every algorithm x preset x task family (and the option sets
+of ``hiddpg reproduce --scale paper``), recorded so that a refactor can show it changes no
+number.
+
+    python scripts/golden.py record tests/golden/metrics.json   # before
+    python scripts/golden.py check  tests/golden/metrics.json   # after: bit for bit
+
+Each case trains two seeds (0, 1) through ``make_train`` vmapped with the seed axis name (the
+engine's gated updates) for a few episodes with small start-up phases, so that every learning
+path runs. ``check`` compares every metric value exactly and a SHA-256 of the final agent
+state (bit for bit on one machine); ``tests/test_golden.py`` compares the values with a
+tolerance (other CPUs round differently).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+
+import jax
+import numpy as np
+
+import hiddpg.configs
+from hiddpg.agents.gate import SEED_AXIS
+from hiddpg.presets import make_config
+from hiddpg.train import make_train, seed_keys
+
+#: short budgets that still reach every phase: random, pre-training, learning, evaluation
+SHORT = ("episodes=6", "eval_every=3", "chunk_episodes=3")
+HI_SHORT = ("agent.learning_starts=40", "agent.high_learning_starts=4")
+ARM_SHORT = ("agent.pretrain_episodes=2",)
+CRITIC_DURATIONS = (
+    "agent.choice=critic-durations", "agent.choice.explore=0.5",
+    "agent.model_weight=0", "agent.use_model=false",
+    "agent.high.action_l2=0.1", "agent.low.noise.final_sigma=0",
+    "agent.low_hindsight.fraction=0.8", "agent.rest_term.weight=0.3",
+)
+ARM_HIGH_CRITIC = ("agent.high_hindsight.probability=1", "agent.high.huber.delta=10",
+                   "agent.high.huber.late_delta=3", "agent.high.huber.late_episode=4")
+if not hasattr(hiddpg.configs, "CriticDurations"):  # the same settings before the parts
+    CRITIC_DURATIONS = (
+        "agent.duration_choice=argmax", "agent.hold_choice=false", "agent.hold_explore=0",
+        "agent.high_time_input=true", "agent.duration_explore=0.5", "agent.model_weight=0",
+        "agent.use_model=false", "agent.high.action_l2=0.1", "agent.low.noise.final_sigma=0",
+        "agent.low_hindsight=0.8", "agent.intrinsic_rest_weight=0.3")
+    ARM_HIGH_CRITIC = ("agent.high_hindsight=1", "agent.high.huber_delta=10",
+                       "agent.high.huber_delta_late=3", "agent.high.huber_late_episode=4")
+TASKS = ("PuckTrajectory1", "PuckObstacle", "ArmObstacle")
+ALGOS = ("ddpg", "hi-ddpg", "hi-ddpg-wo-model", "h-ddpg")
+
+
+def cases() -> dict[str, tuple[str, str, str, tuple[str, ...]]]:
+    """name -> (algo, task, preset, sets)."""
+    out = {}
+    for preset in ("quick", "paper"):
+        for task in TASKS:
+            for algo in ALGOS:
+                sets = SHORT
+                if algo.startswith("hi-ddpg"):
+                    sets += HI_SHORT + (ARM_SHORT if task.startswith("Arm") else ())
+                elif algo == "ddpg":
+                    sets += ("agent.learning_starts=40",)
+                else:
+                    sets += ("agent.skill.learning_starts=40",)
+                if preset == "paper" and task == "PuckObstacle":
+                    continue  # the paper preset's puck code paths run on PuckTrajectory1
+                out[f"{algo}/{task}/{preset}"] = (algo, task, preset, sets)
+    hi = SHORT + HI_SHORT
+    out["hi-ddpg/PuckTrajectory2/quick+critic-durations"] = (
+        "hi-ddpg", "PuckTrajectory2", "quick", hi + CRITIC_DURATIONS)
+    out["hi-ddpg/ArmObstacle/quick+arm-high-critic"] = (
+        "hi-ddpg", "ArmObstacle", "quick", hi + ARM_SHORT + ARM_HIGH_CRITIC)
+    return out
+
+
+def run(algo: str, task: str, preset: str, sets: tuple[str, ...]) -> dict:
+    cfg = make_config(algo, task, preset, list(sets))
+    train = jax.jit(jax.vmap(make_train(cfg), axis_name=SEED_AXIS))
+    state, train_m, eval_m = train(seed_keys([0, 1]))
+    leaves = [np.asarray(x) for x in jax.tree.leaves(state.agent) if np.size(x)]
+    out = {"train": {k: np.asarray(v) for k, v in train_m.items()},
+           "eval": {k: np.asarray(v) for k, v in eval_m.items()}}
+    digest = hashlib.sha256()
+    for part in ("train", "eval"):
+        for k in sorted(out[part]):
+            digest.update(k.encode() + out[part][k].tobytes())
+    # order-free and without empty leaves: the state's pytree layout may change, its values
+    # may not
+    leaf_digests = sorted(hashlib.sha256(x.tobytes()).hexdigest() for x in leaves)
+    state_digest = hashlib.sha256("".join(leaf_digests).encode()).hexdigest()
+    return {"sha256": digest.hexdigest(), "state_sha256": state_digest,
+            "values": {p: {k: v.astype(float).tolist() for k, v in out[p].items()}
+                       for p in out}}
+
+
+def main(argv: list[str]) -> int:
+    mode, path = argv[0], argv[1]
+    only = argv[2:]
+    results = {}
+    for name, case in cases().items():
+        if only and not any(o in name for o in only):
+            continue
+        results[name] = run(*case)
+        print(name, results[name]["sha256"][:12], results[name]["state_sha256"][:12],
+              flush=True)
+    if mode == "record":
+        with open(path, "w") as f:
+            json.dump(results, f, indent=0, sort_keys=True)
+        return 0
+    with open(path) as f:
+        golden = json.load(f)
+    bad = [n for n in results if _differs(golden[n], results[n])]
+    for n in bad:
+        print("DIFFERS:", n)
+    print(f"{len(results) - len(bad)}/{len(results)} cases bit for bit")
+    return 1 if bad else 0
+
+
+def _differs(old: dict, new: dict) -> bool:
+    """Whether any metric value (exactly, whatever its dtype) or the state's bits differ."""
+    if old["state_sha256"] != new["state_sha256"]:
+        return True
+    return any(set(old["values"][p]) != set(new["values"][p])
+               or any(not np.array_equal(np.asarray(old["values"][p][k], np.float64),
+                                         np.asarray(new["values"][p][k], np.float64))
+                      for k in old["values"][p])
+               for p in ("train", "eval"))
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

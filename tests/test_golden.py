@@ -1,0 +1,37 @@
+"""The golden runs (``scripts/golden.py``): short runs of the algorithms, presets and HI-DDPG's
+parts give the metrics recorded in ``tests/golden/metrics.json``. ``scripts/golden.py check``
+compares all of them bit for bit on one machine; this test runs a few of them with a tolerance
+for another CPU's rounding."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+CASES = ("hi-ddpg/PuckTrajectory1/quick", "hi-ddpg/PuckTrajectory2/quick+critic-durations",
+         "hi-ddpg/ArmObstacle/quick+arm-high-critic", "h-ddpg/PuckObstacle/quick")
+
+
+def _golden_module():
+    spec = importlib.util.spec_from_file_location("golden", ROOT / "scripts" / "golden.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", CASES)
+def test_a_golden_run_gives_the_recorded_metrics(name):
+    golden = _golden_module()
+    recorded = json.loads((ROOT / "tests" / "golden" / "metrics.json").read_text())[name]
+    got = golden.run(*golden.cases()[name])
+    for part in ("train", "eval"):
+        assert set(got["values"][part]) == set(recorded["values"][part])
+        for key, values in recorded["values"][part].items():
+            np.testing.assert_allclose(got["values"][part][key], values, rtol=1e-3, atol=1e-4,
+                                       err_msg=f"{name} {part} {key}")
