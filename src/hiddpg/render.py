@@ -6,6 +6,8 @@ each frame on a copy of it, so a 75-step GIF takes a few tens of milliseconds to
 
 Frames can carry an :class:`Overlay`: a hierarchical agent's goals (the active one highlighted),
 the trail of positions so far, the points where the agent switched goals, and lines of text.
+What each environment family looks like is drawn by :mod:`hiddpg.render_puck` and
+:mod:`hiddpg.render_arm`, in the colours of :mod:`hiddpg.render_style`.
 
 >>> from hiddpg import make, render
 >>> env, params = make("PuckTrajectory2")
@@ -29,29 +31,32 @@ except ImportError as e:  # pragma: no cover
     raise ImportError("hiddpg.render needs Pillow: pip install 'hiddpg[plot]'") from e
 
 from hiddpg.envs.arm import ArmParams
-from hiddpg.envs.puckworld import PuckObstacleParams, PuckParams, PuckTrajectoryParams
-
-Color = tuple[int, int, int]
-WHITE: Color = (255, 255, 255)
-INK: Color = (40, 40, 48)
-GRID: Color = (232, 232, 236)
-REFERENCE: Color = (150, 150, 160)
-REF_GOAL: Color = (90, 90, 100)
-PUCK: Color = (30, 110, 200)
-TRAIL: Color = (120, 170, 230)
-AGENT_GOAL: Color = (230, 120, 20)
-SWITCH: Color = (200, 40, 140)
-TARGET: Color = (40, 160, 70)
-OBSTACLE: Color = (200, 60, 50)
-MUSCLE_REST: Color = (215, 190, 190)
-MUSCLE_ACTIVE: Color = (220, 30, 30)
-
-#: Muscle layout for drawing (not physics): (name, segments spanned, side of the bone).
-MUSCLES: tuple[tuple[str, str, int], ...] = (
-    ("shoulder flexor", "shoulder", +1), ("shoulder extensor", "shoulder", -1),
-    ("elbow flexor", "elbow", +1), ("elbow extensor", "elbow", -1),
-    ("biarticular flexor", "both", +1), ("biarticular extensor", "both", -1),
+from hiddpg.envs.puckworld import PuckParams
+from hiddpg.render_arm import MUSCLES, ArmDrawing
+from hiddpg.render_puck import PuckDrawing
+from hiddpg.render_style import (
+    AGENT_GOAL,
+    GRID,
+    INK,
+    MUSCLE_ACTIVE,
+    MUSCLE_REST,
+    OBSTACLE,
+    PUCK,
+    REF_GOAL,
+    REFERENCE,
+    SWITCH,
+    TARGET,
+    TRAIL,
+    WHITE,
+    Color,
 )
+from hiddpg.render_style import blend as _blend
+
+__all__ = [
+    "AGENT_GOAL", "GRID", "INK", "MUSCLES", "MUSCLE_ACTIVE", "MUSCLE_REST", "OBSTACLE", "PUCK",
+    "REFERENCE", "REF_GOAL", "SWITCH", "TARGET", "TRAIL", "WHITE", "Color", "Overlay", "Scene",
+    "render_frame", "render_rollout", "write_gif", "write_png",
+]
 
 
 @dataclasses.dataclass
@@ -74,12 +79,7 @@ class Overlay:
     text: Sequence[str] = ()
 
 
-def _blend(a: Color, b: Color, w: float) -> Color:
-    w = min(max(float(w), 0.0), 1.0)
-    return tuple(int(round(x + (y - x) * w)) for x, y in zip(a, b, strict=True))  # type: ignore[return-value]
-
-
-class Scene:
+class Scene(PuckDrawing, ArmDrawing):
     """Draws frames of one task with fixed params.
 
     Args:
@@ -121,14 +121,6 @@ class Scene:
         x, y = self.px(p)
         draw.ellipse((x - r_px, y - r_px, x + r_px, y + r_px), **kw)
 
-    def joints(self, theta: Sequence[float]) -> np.ndarray:
-        """Shoulder, elbow and hand positions ``(3, 2)`` of joint angles (numpy twin of
-        :func:`hiddpg.envs.arm.forward_kinematics`, fast enough to call per frame)."""
-        t1, t12 = float(theta[0]), float(theta[0]) + float(theta[1])
-        elbow = self._l1 * np.array([math.cos(t1), math.sin(t1)])
-        return np.stack([np.zeros(2), elbow, elbow + self._l2 * np.array([math.cos(t12),
-                                                                         math.sin(t12)])])
-
     def _world_circle(self, draw: Any, p: Sequence[float], r: float, **kw: Any) -> None:
         self._circle(draw, p, r * self.scale, **kw)
 
@@ -136,33 +128,6 @@ class Scene:
         x, y = self.px(p)
         draw.line((x - r_px, y - r_px, x + r_px, y + r_px), fill=color, width=w)
         draw.line((x - r_px, y + r_px, x + r_px, y - r_px), fill=color, width=w)
-
-    # -- views --------------------------------------------------------------------------------
-    def _puck_view(self) -> tuple[float, float, float, float]:
-        gs = self.core.goal_space
-        p = self.params
-        pts = [np.asarray(gs.low), np.asarray(gs.high), np.asarray(p.init_state[:2])]
-        if isinstance(p, PuckTrajectoryParams):
-            pts += list(np.asarray(p.ref_states)[:, :2]) + list(np.asarray(p.goals))
-        if isinstance(p, PuckObstacleParams):
-            c, r = np.asarray(p.obstacle_center), float(p.obstacle_radius)
-            pts += [np.asarray(p.target), c - r, c + r]
-        pts = np.stack(pts)
-        lo, hi = pts.min(0) - 0.2, pts.max(0) + 0.2
-        return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
-
-    def _arm_view(self) -> tuple[float, float, float, float]:
-        """The bounding box of every posture within the joint limits, plus a margin."""
-        p = self.params
-        lo, hi = np.asarray(p.joint_low, np.float64), np.asarray(p.joint_high, np.float64)
-        t1, t2 = np.meshgrid(np.linspace(lo[0], hi[0], 29), np.linspace(lo[1], hi[1], 33))
-        l1, l2 = float(p.upper_arm_length), float(p.forearm_length)
-        ex, ey = l1 * np.cos(t1), l1 * np.sin(t1)
-        hx, hy = ex + l2 * np.cos(t1 + t2), ey + l2 * np.sin(t1 + t2)
-        xs = np.concatenate([[0.0, -0.10], ex.ravel(), hx.ravel()])
-        ys = np.concatenate([[0.0, -0.12], ey.ravel(), hy.ravel()])
-        m = 0.04
-        return xs.min() - m, xs.max() + m, ys.min() - m, ys.max() + m
 
     # -- static layer -------------------------------------------------------------------------
     def _draw_background(self) -> Image.Image:
@@ -180,34 +145,6 @@ class Scene:
             draw.line((*self.px((xmin, y)), *self.px((xmax, y))), fill=GRID, width=1)
         draw.line((*self.px((xmin, 0)), *self.px((xmax, 0))), fill=_blend(GRID, INK, 0.2))
         draw.line((*self.px((0, ymin)), *self.px((0, ymax))), fill=_blend(GRID, INK, 0.2))
-
-    def _puck_background(self, draw: Any) -> None:
-        p = self.params
-        if isinstance(p, PuckTrajectoryParams):
-            ref = [np.asarray(p.init_state[:2])] + list(np.asarray(p.ref_states)[:, :2])
-            draw.line([self.px(q) for q in ref], fill=REFERENCE, width=2)
-            for q in ref[1:]:
-                self._circle(draw, q, 2, fill=REFERENCE)
-            for i, g in enumerate(np.asarray(p.goals)):
-                self._cross(draw, g, 6, REF_GOAL, 2)
-                x, y = self.px(g)
-                draw.text((x + 7, y - 7), f"g{i + 1}", fill=REF_GOAL, font=self.font)
-        if isinstance(p, PuckObstacleParams):
-            self._world_circle(draw, p.obstacle_center, float(p.obstacle_radius),
-                               fill=_blend(OBSTACLE, WHITE, 0.55), outline=OBSTACLE, width=2)
-            self._circle(draw, p.target, 7, outline=TARGET, width=3)
-            self._cross(draw, p.target, 4, TARGET, 2)
-
-    def _arm_background(self, draw: Any) -> None:
-        p = self.params
-        # torso: a rounded block behind the shoulder
-        box = (*self.px((-0.10, 0.04)), *self.px((0.02, -0.12)))
-        draw.rounded_rectangle(box, radius=8, fill=(225, 225, 230))
-        center = getattr(p, "obstacle_center", None)
-        if center is not None:
-            d = float(p.obstacle_diameter)
-            self._world_circle(draw, center, d, outline=_blend(OBSTACLE, WHITE, 0.6), width=1)
-            self._world_circle(draw, center, d / 2, fill=OBSTACLE)
 
     # -- dynamic layer ------------------------------------------------------------------------
     def frame(self, x: Any, action: Any = None, overlay: Overlay | None = None) -> np.ndarray:
@@ -234,57 +171,6 @@ class Scene:
         if overlay.active_goal is None or i == overlay.active_goal:
             return AGENT_GOAL
         return _blend(AGENT_GOAL, WHITE, 0.55)
-
-    def _draw_puck(self, draw: Any, x: np.ndarray, action: Any, overlay: Overlay) -> None:
-        for i, g in enumerate(overlay.goals):
-            color = self._goal_color(i, overlay)
-            self._circle(draw, g, 6, outline=color, width=2)
-            self._circle(draw, g, 2, fill=color)
-        if action is not None:
-            a = np.clip(np.asarray(action, np.float64), -1.0, 1.0)
-            tip = x[:2] + 0.3 * a
-            draw.line((*self.px(x[:2]), *self.px(tip)), fill=AGENT_GOAL, width=2)
-        self._circle(draw, x[:2], 7, fill=PUCK, outline=INK, width=1)
-
-    def _draw_arm(self, draw: Any, x: np.ndarray, action: Any, overlay: Overlay,
-                  target: Any) -> None:
-        if target is not None:
-            hand = self.joints(np.asarray(target))[2]
-            self._circle(draw, hand, 8, outline=TARGET, width=3)
-            self._cross(draw, hand, 4, TARGET, 2)
-        for i, g in enumerate(overlay.goals):
-            ghost = self.joints(g)
-            color = _blend(self._goal_color(i, overlay), WHITE, 0.35)
-            draw.line([self.px(q) for q in ghost], fill=color, width=2)
-            self._circle(draw, ghost[2], 5, outline=self._goal_color(i, overlay), width=2)
-        joints = self.joints(x[:2])
-        act = np.zeros(6) if action is None else np.clip(np.asarray(action, np.float64), 0, 1)
-        for (_, span, side), a in zip(MUSCLES, act, strict=True):
-            path = self._muscle_path(joints, span, side)
-            draw.line([self.px(q) for q in path], fill=_blend(MUSCLE_REST, MUSCLE_ACTIVE, a),
-                      width=int(round(2 + 4 * a)), joint="curve")
-        draw.line([self.px(q) for q in joints], fill=INK, width=6, joint="curve")
-        for q in joints[:2]:
-            self._circle(draw, q, 6, fill=WHITE, outline=INK, width=2)
-        self._circle(draw, joints[2], 5, fill=PUCK, outline=INK, width=1)
-
-    @staticmethod
-    def _muscle_path(joints: np.ndarray, span: str, side: int) -> list[np.ndarray]:
-        """A schematic muscle line: flexors (side +1) on the counter-clockwise side of the bones,
-        extensors (-1) on the other; ``span`` is the joint(s) crossed."""
-        shoulder, elbow, hand = joints
-        l1, l2 = np.linalg.norm(elbow - shoulder), np.linalg.norm(hand - elbow)
-        u1, u2 = (elbow - shoulder) / max(l1, 1e-9), (hand - elbow) / max(l2, 1e-9)
-        n1, n2 = np.array([-u1[1], u1[0]]) * side, np.array([-u2[1], u2[0]]) * side
-        corner = (n1 + n2) / max(np.linalg.norm(n1 + n2), 1e-9)
-        torso = shoulder + (np.array([-0.045, 0.0]) if side > 0 else np.array([0.01, -0.045]))
-        if span == "shoulder":
-            return [torso, shoulder + 0.4 * l1 * u1 + 0.014 * n1]
-        if span == "elbow":
-            return [shoulder + 0.55 * l1 * u1 + 0.014 * n1, elbow + 0.02 * corner,
-                    elbow + 0.25 * l2 * u2 + 0.014 * n2]
-        return [torso + 0.012 * n1, shoulder + 0.25 * l1 * u1 + 0.03 * n1,
-                elbow + 0.036 * corner, elbow + 0.35 * l2 * u2 + 0.028 * n2]
 
     def position(self, x: Any) -> np.ndarray:
         """The world point a trail follows: the puck centre or the hand."""

@@ -16,7 +16,6 @@ and exit with code 2.
 from __future__ import annotations
 
 import ast
-import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Annotated, Any
@@ -26,6 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 import tyro
 
+from hiddpg.commands.common import run_tyro
 from hiddpg.envs import TASKS, make, task_name
 
 #: PuckObstacle demo [decision]: aim at a waypoint above the disc until within
@@ -222,14 +222,6 @@ def demo(
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``hiddpg envs {list, demo}``; returns the exit code."""
-    args = list(sys.argv[1:] if argv is None else argv)
-    try:
-        return tyro.extras.subcommand_cli_from_dict(
-            {"list": list_envs, "demo": demo}, prog="hiddpg envs", args=args
-        )
-    except SystemExit as e:  # tyro's --help (0) and its usage errors (2)
-        return e.code if isinstance(e.code, int) else 2
-    except ValueError as e:
-        message = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-        print(f"hiddpg envs: error: {message}", file=sys.stderr)
-        return 2
+    commands = {"list": list_envs, "demo": demo}
+    return run_tyro("hiddpg envs", argv, lambda args: tyro.extras.subcommand_cli_from_dict(
+        commands, prog="hiddpg envs", args=args), errors=(ValueError,))

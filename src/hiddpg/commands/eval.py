@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from hiddpg.commands.common import Parser as _Parser
-from hiddpg.commands.common import UsageError, argv_or_help
+from hiddpg.commands.common import UsageError, run_command
 from hiddpg.runs import Run, make_trainer
 from hiddpg.train import eval_keys
 
@@ -29,8 +29,6 @@ PROG = "hiddpg eval"
 #: GIF frame rate cap: the arm (50 control steps/s) plays at half speed.
 MAX_FPS = 25.0
 COLUMNS = ("return", "env_return", "switches", "length")
-
-
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -46,21 +44,24 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``hiddpg eval`` with ``argv``; returns the exit code (2 on a bad command line)."""
-    argv = argv_or_help(argv, build_parser)
-    if argv is None:
-        return 0
-    try:
-        args = build_parser().parse_args(argv)
-        run = Run.open(args.run)
-        if args.seed is not None and args.seed not in run.seeds:
-            raise UsageError(f"--seed {args.seed} is not in the run; its seeds are "
-                             f"{list(run.seeds)}")
-        if not run.checkpoint_path.is_file():
-            raise UsageError(f"{run.path} has no checkpoint yet")
-        trainer = make_trainer(run.config)
-    except (UsageError, ValueError, FileNotFoundError) as err:
-        print(f"{PROG}: error: {err}", file=sys.stderr)
-        return 2
+    return run_command(PROG, argv, build_parser, _open, _evaluate,
+                       errors=(UsageError, ValueError, FileNotFoundError))
+
+
+def _open(args: argparse.Namespace) -> tuple[Run, Any]:
+    """The run to evaluate and its trainer; a usage error if the seed or checkpoint is missing."""
+    run = Run.open(args.run)
+    if args.seed is not None and args.seed not in run.seeds:
+        raise UsageError(f"--seed {args.seed} is not in the run; its seeds are "
+                         f"{list(run.seeds)}")
+    if not run.checkpoint_path.is_file():
+        raise UsageError(f"{run.path} has no checkpoint yet")
+    return run, make_trainer(run.config)
+
+
+def _evaluate(args: argparse.Namespace, opened: tuple[Run, Any]) -> int:
+    """Evaluate every seed from the checkpoint, print the table and write the GIF."""
+    run, trainer = opened
     state, done = run.load_checkpoint(trainer)
     metrics, traj = trainer.evaluate_seeds(state, eval_keys(args.key, run.seeds))
     metrics = {k: np.asarray(v) for k, v in metrics.items()}

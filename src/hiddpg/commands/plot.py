@@ -16,13 +16,12 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from hiddpg.commands.common import Parser as _Parser
-from hiddpg.commands.common import UsageError, argv_or_help
+from hiddpg.commands.common import UsageError, run_command
 
 PROG = "hiddpg plot"
-
-
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -54,25 +53,32 @@ def _labels(runs: list) -> dict:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``hiddpg plot`` with ``argv``; returns the exit code."""
-    argv = argv_or_help(argv, build_parser)
-    if argv is None:
-        return 0
+    from hiddpg.experiments.rundata import ExperimentError
+
+    return run_command(PROG, argv, build_parser, _compare, _plot,
+                       errors=(UsageError, ValueError, ExperimentError, FileNotFoundError))
+
+
+def _compare(args: argparse.Namespace) -> tuple[dict, Any]:
+    """The labelled runs and their comparison; a usage error if there are none."""
+    from hiddpg.experiments import comparison
+    from hiddpg.experiments.rundata import discover_runs, load_run
+
+    if args.stages < 1:
+        raise UsageError(f"--stages {args.stages} must be >= 1")
+    paths = discover_runs(args.runs)
+    if not paths:
+        raise UsageError(f"no run directories under {args.runs}")
+    runs = _labels([load_run(p) for p in paths])
+    return runs, comparison.compare(runs, args.metric, args.stages)
+
+
+def _plot(args: argparse.Namespace, compared: tuple[dict, Any]) -> int:
+    """Write the figure and print the summary."""
     from hiddpg.experiments import comparison
     from hiddpg.experiments.report import save_figure
-    from hiddpg.experiments.rundata import ExperimentError, discover_runs, load_run
 
-    try:
-        args = build_parser().parse_args(argv)
-        if args.stages < 1:
-            raise UsageError(f"--stages {args.stages} must be >= 1")
-        paths = discover_runs(args.runs)
-        if not paths:
-            raise UsageError(f"no run directories under {args.runs}")
-        runs = _labels([load_run(p) for p in paths])
-        comp = comparison.compare(runs, args.metric, args.stages)
-    except (UsageError, ValueError, ExperimentError, FileNotFoundError) as err:
-        print(f"{PROG}: error: {err}", file=sys.stderr)
-        return 2
+    runs, comp = compared
     tasks = sorted({r.config.task for r in runs.values()})
     title = args.title or f"{', '.join(tasks)}: {' vs '.join(runs)}"
     written = save_figure(comparison.plot_comparison(comp, title), Path(args.out))

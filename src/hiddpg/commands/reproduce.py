@@ -20,14 +20,12 @@ import time
 from collections.abc import Callable, Sequence
 
 from hiddpg.commands.common import Parser as _Parser
-from hiddpg.commands.common import UsageError, argv_or_help
+from hiddpg.commands.common import UsageError, report_error, run_command
 from hiddpg.experiments.common import SCALES, Context, budget_table
 from hiddpg.experiments.rundata import ExperimentError
 
 PROG = "hiddpg reproduce"
 FIGURES = ("fig3", "fig4", "fig5", "fig6", "fig7", "fig8")
-
-
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -60,21 +58,23 @@ def _runners() -> dict[str, Callable]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``hiddpg reproduce`` with ``argv``; returns the exit code."""
-    argv = argv_or_help(argv, build_parser)
-    if argv is None:
-        return 0
-    try:
-        args = build_parser().parse_args(argv)
-        if args.episodes is not None and args.episodes < 1:
-            raise UsageError(f"--episodes {args.episodes} must be >= 1")
-        tasks = tuple(t for t in (args.tasks or "").split(",") if t) or None
-        ctx = Context(out=args.out or f"results/{args.scale}", scale=args.scale,
-                      seeds=args.seeds, episodes=args.episodes, sets=tuple(args.sets),
-                      tasks=tasks)
-        ctx.config("hi-ddpg", "PuckTrajectory1")  # a bad --set fails here, before training
-    except (UsageError, ValueError) as err:
-        print(f"{PROG}: error: {err}", file=sys.stderr)
-        return 2
+    return run_command(PROG, argv, build_parser, _context, _reproduce)
+
+
+def _context(args: argparse.Namespace) -> Context:
+    """The experiment context of the command line, its config checked before any training."""
+    if args.episodes is not None and args.episodes < 1:
+        raise UsageError(f"--episodes {args.episodes} must be >= 1")
+    tasks = tuple(t for t in (args.tasks or "").split(",") if t) or None
+    ctx = Context(out=args.out or f"results/{args.scale}", scale=args.scale,
+                  seeds=args.seeds, episodes=args.episodes, sets=tuple(args.sets),
+                  tasks=tasks)
+    ctx.config("hi-ddpg", "PuckTrajectory1")  # a bad --set fails here, before training
+    return ctx
+
+
+def _reproduce(args: argparse.Namespace, ctx: Context) -> int:
+    """Run the figures and write the report; 1 if an experiment fails, 130 if interrupted."""
     from hiddpg.experiments.report import write_report
 
     figures = FIGURES if args.figure == "all" else (args.figure,)
@@ -86,8 +86,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             ctx.say(f"{name}: {', '.join(section['figures'])} ({section['wall_s']:.1f} s)")
             write_report(ctx, time.perf_counter() - t0)
     except ExperimentError as err:
-        print(f"{PROG}: error: {err}", file=sys.stderr)
-        return 1
+        return report_error(PROG, err, code=1)
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted; run the same command again to continue", file=sys.stderr)
         return 130

@@ -7,8 +7,8 @@
                  [--set KEY=VALUE ...] [--grid KEY=V1,V2 ...]
                  [--cpus-per-run C] [--gpus-per-run G] [--retries R] [--dry-run]
 
-SPEC is a TOML file (see :mod:`hiddpg.sweep`); flags replace its algos/tasks/seeds/presets and
-add to its set/grid. Every run's config is validated before anything runs (errors: exit 2).
+SPEC is a TOML file (see :mod:`hiddpg.sweep_spec`); flags replace its algos/tasks/seeds/presets
+and add to its set/grid. Every run's config is validated before anything runs (errors: exit 2).
 Complete runs are skipped, interrupted ones resumed from their last checkpoint. The local
 backend trains one configuration after another in this process, or ``--workers N`` at a time
 in subprocesses (logs in ``OUT/.sweep/logs/``); ``--backend ray`` sends one Ray task per
@@ -25,16 +25,16 @@ import subprocess
 import sys
 import time
 import traceback
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from hiddpg import sweep
 from hiddpg.commands import train as train_cmd
 from hiddpg.commands.common import Parser as _Parser
-from hiddpg.commands.common import argv_or_help
+from hiddpg.commands.common import UsageError, report_error, run_command
 from hiddpg.devices import DEVICES_ENV, cpu_cores
 from hiddpg.runs import PROGRESS_FILE, Run
 
@@ -94,7 +94,7 @@ def spec_from_args(args: argparse.Namespace) -> dict[str, Any]:
         for item in args.grid:
             key, sep, raw = item.partition("=")
             if not sep or not raw:
-                raise train_cmd.UsageError(f"--grid {item!r} must have the form KEY=V1,V2")
+                raise UsageError(f"--grid {item!r} must have the form KEY=V1,V2")
             spec["grid"][key.strip()] = _grid_values(raw)
     return spec
 
@@ -108,28 +108,44 @@ def _grid_values(raw: str) -> list:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    argv = argv_or_help(argv, build_parser)
-    if argv is None:
-        return 0
-    try:
-        args = build_parser().parse_args(argv)
-        if args.backend == "local" and args.address:
-            raise train_cmd.UsageError("--address needs --backend ray")
-        if args.workers < 1 or (args.workers > 1 and args.backend == "ray"):
-            raise train_cmd.UsageError(f"--workers {args.workers}: give a number >= 1, and "
-                                       "only with --backend local")
-        runs = every = sweep.expand(spec_from_args(args), args.spec or "command line")
-        if args.index is not None:
-            if not 0 <= args.index < len(runs):
-                raise train_cmd.UsageError(f"--index {args.index} is out of range: the sweep "
-                                           f"has {len(runs)} runs, 0 to {len(runs) - 1}")
-            runs = [runs[args.index]]
-        out = Path(args.out).resolve()
-        states = {run.name: sweep.run_state(out, run) for run in runs}
-        run_ray = _ray_backend() if args.backend == "ray" and not args.dry_run else None
-    except (train_cmd.UsageError, sweep.SweepError) as err:
-        print(f"{PROG}: error: {err}", file=sys.stderr)
-        return 2
+    """Run ``hiddpg sweep`` with ``argv``; returns the exit code."""
+    return run_command(PROG, argv, build_parser, _plan, _sweep,
+                       errors=(UsageError, sweep.SweepError))
+
+
+class _Plan(NamedTuple):
+    """The runs of a sweep command line: those to train, every run of the spec, the output
+    directory, each run's state and the Ray backend (``None``: local, or a dry run)."""
+
+    runs: list[sweep.SweepRun]
+    every: list[sweep.SweepRun]
+    out: Path
+    states: dict[str, str]
+    run_ray: Callable | None
+
+
+def _plan(args: argparse.Namespace) -> _Plan:
+    """Check the flags, expand and validate the spec and read each run's state."""
+    if args.backend == "local" and args.address:
+        raise UsageError("--address needs --backend ray")
+    if args.workers < 1 or (args.workers > 1 and args.backend == "ray"):
+        raise UsageError(f"--workers {args.workers}: give a number >= 1, and "
+                         "only with --backend local")
+    runs = every = sweep.expand(spec_from_args(args), args.spec or "command line")
+    if args.index is not None:
+        if not 0 <= args.index < len(runs):
+            raise UsageError(f"--index {args.index} is out of range: the sweep "
+                             f"has {len(runs)} runs, 0 to {len(runs) - 1}")
+        runs = [runs[args.index]]
+    out = Path(args.out).resolve()
+    states = {run.name: sweep.run_state(out, run) for run in runs}
+    run_ray = _ray_backend() if args.backend == "ray" and not args.dry_run else None
+    return _Plan(runs, every, out, states, run_ray)
+
+
+def _sweep(args: argparse.Namespace, plan: _Plan) -> int:
+    """List the runs (``--dry-run``) or train those not finished; the sweep's exit code."""
+    runs, every, out, states, run_ray = plan
     if args.dry_run:
         for i, run in enumerate(runs):
             print(f"{i:>4}  {states[run.name]:<8}  {run.name}  ({run.describe()})")
@@ -157,8 +173,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{PROG}: interrupted; run the same command again to resume", file=sys.stderr)
         return 130
     except sweep.SweepError as err:  # the Ray cluster cannot be reached
-        print(f"{PROG}: error: {err}", file=sys.stderr)
-        return 2
+        return report_error(PROG, err)
     finally:
         progress.close()
     return summarize(out, runs, codes)
@@ -168,8 +183,8 @@ def _ray_backend():
     try:
         from hiddpg.sweep_ray import run_ray
     except ImportError as err:
-        raise train_cmd.UsageError(f"--backend ray needs Ray ({err}); install it with "
-                                   "pip install 'hiddpg[ray]'") from None
+        raise UsageError(f"--backend ray needs Ray ({err}); install it with "
+                         "pip install 'hiddpg[ray]'") from None
     return run_ray
 
 

@@ -10,6 +10,9 @@ force ``F = force_max * clip(a, -1, 1)``; one control period is the forward-Eule
 * :class:`PuckObstacle` (§1.2): reach ``target`` without entering a disc.
 
 Hierarchical agents' goals fix ``(x, y)`` within ``[-1, 3] x [-2.5, 2.5]`` (§3).
+
+The params and state are defined in :mod:`hiddpg.envs.puck_params`, the dynamics and the
+reference controller in :mod:`hiddpg.envs.puck_dynamics`; both are re-exported here.
 """
 
 from __future__ import annotations
@@ -20,180 +23,37 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
-from flax import struct
 
-from hiddpg.envs.base import (
-    Environment,
-    GoalSpace,
-    StepResult,
-    check_range,
-    clip,
-    replace_params,
+from hiddpg.envs.base import Environment, StepResult, check_range, replace_params
+from hiddpg.envs.puck_dynamics import (
+    continuous_matrices,
+    discrete_matrices,
+    dynamics,
+    lqr_gain,
+    reference_action,
+    reference_goal,
+    reference_trajectory,
 )
-from hiddpg.envs.lqr import discounted_lqr
+from hiddpg.envs.puck_params import (
+    ACTION_DIM,
+    DERIVED_FIELDS,
+    GOAL_SPACE,
+    POSITION,
+    REFERENCE_GOALS,
+    STATE_DIM,
+    PuckObstacleParams,
+    PuckParams,
+    PuckState,
+    PuckTrajectoryParams,
+)
 
-STATE_DIM = 4
-ACTION_DIM = 2
-#: The position entries of the state (those a goal fixes).
-POSITION = slice(0, 2)
-#: §3: goals fix ``x, y`` within the bounds below ([paper] form, [decision] bounds).
-GOAL_SPACE = GoalSpace(indices=(0, 1), low=(-1.0, -2.5), high=(3.0, 2.5))
-#: §1.1 reference goals of the three trajectory tasks ([paper]).
-REFERENCE_GOALS: dict[int, tuple[tuple[float, float], ...]] = {
-    1: ((1.5, 0.35),),
-    2: ((1.2, -0.9), (2.3, 1.5)),
-    3: ((1.5, -1.5), (1.5, 1.5), (2.0, -1.8)),
-}
-#: Fields computed by ``default_params``; overriding them is an error.
-DERIVED_FIELDS = ("lqr_gain", "ref_states", "ref_actions")
-
-
-def _array(*values: Any) -> Any:
-    """A float32 default factory for a dataclass field."""
-    return struct.field(default_factory=lambda: jnp.asarray(values, jnp.float32))
-
-
-@struct.dataclass
-class PuckParams:
-    """Physics shared by every PuckWorld task (§1) and the LQR goal-reaching controller.
-
-    Attributes:
-        dt: control period in seconds [decision]; ``v' = (1 - damping dt) v + dt F``.
-        damping: linear velocity damping per second, unit mass [decision].
-        force_max: force bound; the normalised action ``[-1, 1]`` is scaled by it [decision].
-        init_state: ``(4,)`` state at reset ([paper] for the trajectory tasks).
-        max_steps: horizon in actions (static Python int).
-        lqr_position_weight: weight of ``|p - g|^2`` in the LQR stage cost [decision].
-        lqr_action_weight: weight of ``|F|^2`` in the LQR stage cost [decision].
-        lqr_discount: discount of the LQR cost, that of HI-DDPG's low level [decision].
-        lqr_gain: ``(2, 4)`` derived: the discounted LQR gain ``K`` (force units) of the
-            discretised system, filled in by ``default_params``.
-    """
-
-    dt: float = 0.1
-    damping: float = 0.5
-    force_max: float = 10.0
-    init_state: jax.Array = _array(0.0, 0.0, 0.5, 0.5)
-    max_steps: int = struct.field(pytree_node=False, default=30)
-    lqr_position_weight: float = 1.0
-    lqr_action_weight: float = 0.03
-    lqr_discount: float = 0.95
-    lqr_gain: jax.Array | None = None
-
-
-@struct.dataclass
-class PuckTrajectoryParams(PuckParams):
-    """Params of the trajectory-following tasks (§1.1).
-
-    Attributes:
-        goals: ``(n_goals, 2)`` reference goals ([paper]).
-        switch_steps: ``(n_goals - 1,)`` int32: action ``k`` (0-based) aims at goal
-            ``#{s in switch_steps : s <= k}``; ``None`` in ``default_params`` means the equal
-            split of the horizon (none; 15; 10 and 20 for 30 steps) [decision].
-        ref_states: ``(max_steps, 4)`` derived: reference state after each action.
-        ref_actions: ``(max_steps, 2)`` derived: normalised actions producing ``ref_states``.
-    """
-
-    goals: jax.Array = struct.field(
-        default_factory=lambda: jnp.asarray(REFERENCE_GOALS[1], jnp.float32)
-    )
-    switch_steps: jax.Array | None = None
-    ref_states: jax.Array | None = None
-    ref_actions: jax.Array | None = None
-
-
-@struct.dataclass
-class PuckObstacleParams(PuckParams):
-    """Params of the obstacle task (§1.2, all [decision]).
-
-    Attributes:
-        target: ``(2,)`` position to reach.
-        obstacle_center: ``(2,)`` centre of the disc.
-        obstacle_radius: collision when the puck centre is closer than this to the centre.
-        collision_penalty: reward of the colliding step (which terminates the episode).
-    """
-
-    init_state: jax.Array = _array(0.0, 0.0, 0.0, 0.0)
-    max_steps: int = struct.field(pytree_node=False, default=50)
-    target: jax.Array = _array(2.0, 0.0)
-    obstacle_center: jax.Array = _array(1.0, 0.0)
-    obstacle_radius: float = 0.3
-    collision_penalty: float = -150.0
-
-
-@struct.dataclass
-class PuckState:
-    """``x``: ``(4,)`` ``[x, y, vx, vy]``; ``t``: int32 number of actions taken."""
-
-    x: jax.Array
-    t: jax.Array
-
-
-# -- physics ----------------------------------------------------------------------------------
-def continuous_matrices(damping: Any, dtype: Any = jnp.float32) -> tuple[jax.Array, jax.Array]:
-    """The spec's ``(A, B)`` of ``ds/dt = A s + B F`` (unit mass, linear damping)."""
-    eye = jnp.eye(ACTION_DIM, dtype=dtype)
-    zero = jnp.zeros((ACTION_DIM, ACTION_DIM), dtype)
-    A = jnp.block([[zero, eye], [zero, -damping * eye]])
-    B = jnp.concatenate([zero, eye])
-    return A, B
-
-
-def discrete_matrices(params: PuckParams) -> tuple[jax.Array, jax.Array]:
-    """Forward-Euler ``(A_d, B_d) = (I + dt A, dt B)`` in force units: ``s' = A_d s + B_d F``."""
-    A, B = continuous_matrices(params.damping)
-    return jnp.eye(STATE_DIM) + params.dt * A, params.dt * B
-
-
-def dynamics(x: jax.Array, action: jax.Array, params: PuckParams) -> jax.Array:
-    """One control period ``s' = s + dt (A s + B F)``, ``F = force_max * clip(action, -1, 1)``
-    (the result keeps the dtype of ``x``)."""
-    A, B = continuous_matrices(params.damping, x.dtype)
-    force = params.force_max * clip(action, -1.0, 1.0)
-    return (x + params.dt * (A @ x + B @ force)).astype(x.dtype)
-
-
-def lqr_gain(params: PuckParams) -> jax.Array:
-    """The discounted LQR gain ``K`` (§1.1) for stage cost
-    ``w_p |p - g|^2 + w_a |F|^2`` on the discretised system (float32, ``(2, 4)``)."""
-    A_d, B_d = (np.asarray(m, np.float64) for m in discrete_matrices(params))
-    select = np.eye(STATE_DIM)[list(GOAL_SPACE.indices)]
-    Q = float(params.lqr_position_weight) * select.T @ select
-    R = float(params.lqr_action_weight) * np.eye(ACTION_DIM)
-    K, _ = discounted_lqr(A_d, B_d, Q, R, float(params.lqr_discount))
-    return jnp.asarray(K, jnp.float32)
-
-
-def reference_action(obs: jax.Array, goal_xy: jax.Array, params: PuckParams) -> jax.Array:
-    """The LQR goal-reaching controller as a normalised action:
-    ``clip(-K (s - [gx, gy, 0, 0]), -force_max, force_max) / force_max``."""
-    goal = GOAL_SPACE.embed(jnp.asarray(goal_xy, jnp.float32), STATE_DIM)
-    force = jnp.clip(-params.lqr_gain @ (obs - goal), -params.force_max, params.force_max)
-    return force / params.force_max
-
-
-def reference_goal(k: jax.Array, goals: jax.Array, switch_steps: jax.Array) -> jax.Array:
-    """The goal that action ``k`` (0-based) aims at: goal ``#{s in switch_steps : s <= k}``."""
-    return goals[jnp.sum(k >= switch_steps)]
-
-
-def reference_trajectory(
-    goals: jax.Array, switch_steps: jax.Array, params: PuckParams,
-) -> tuple[jax.Array, jax.Array]:
-    """Run :func:`reference_action` from ``init_state`` for ``max_steps`` actions through
-    ``goals`` (switching at ``switch_steps``): ``(max_steps, 4)`` states after each action and
-    the ``(max_steps, 2)`` normalised actions."""
-    goals, switch_steps = jnp.asarray(goals, jnp.float32), jnp.asarray(switch_steps, jnp.int32)
-
-    def control(x, k):
-        action = reference_action(x, reference_goal(k, goals, switch_steps), params)
-        x_next = dynamics(x, action, params)
-        return x_next, (x_next, action)
-
-    steps = jnp.arange(params.max_steps, dtype=jnp.int32)
-    _, (states, actions) = jax.lax.scan(control, params.init_state, steps)
-    return states, actions
-
+__all__ = [
+    "ACTION_DIM", "DERIVED_FIELDS", "GOAL_SPACE", "POSITION", "REFERENCE_GOALS", "STATE_DIM",
+    "PuckObstacle", "PuckObstacleParams", "PuckParams", "PuckState", "PuckTrajectory",
+    "PuckTrajectory1", "PuckTrajectory2", "PuckTrajectory3", "PuckTrajectoryParams",
+    "continuous_matrices", "discrete_matrices", "dynamics", "equal_split", "lqr_gain",
+    "reference_action", "reference_goal", "reference_trajectory",
+]
 
 _reference_trajectory_jit = jax.jit(reference_trajectory)
 
@@ -396,4 +256,3 @@ class PuckObstacle(_Puck):
             obs=x, state=PuckState(x=x, t=t), reward=reward.astype(jnp.float32),
             terminated=collision, truncated=(t >= params.max_steps) & ~collision, info=info,
         )
-
