@@ -2,7 +2,7 @@
 
 import importlib.util
 
-from hiddpg.envs import make
+from hiddpg.envs import make, register_task
 
 __version__ = "0.1.0"
 
@@ -11,4 +11,4 @@ if importlib.util.find_spec("gymnasium") is not None:  # the `gym` extra is inst
 
     _register_envs()
 
-__all__ = ["make", "__version__"]
+__all__ = ["make", "register_task", "__version__"]

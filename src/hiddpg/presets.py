@@ -1,21 +1,22 @@
 """Named presets and ``--set key=value`` overrides.
 
-* ``paper``: the paper's hyper-parameters for the task's family (puck or arm), the spec's
-  defaults where the paper is silent;
+* ``paper``: the paper's hyper-parameters for the task's family (puck or arm; a user's
+  ``custom`` task gets the puck values), the spec's defaults where the paper is silent;
 * ``quick``: small networks and budgets, for the README's main job, CI and smoke studies.
 
-:func:`make_config` builds a validated :class:`TrainConfig` from ``(algo, task, preset, sets)``
-before anything is compiled, so a bad value fails at once with a message naming it.
+Each algorithm names its preset builders (``ddpg_paper``, ``hi_ddpg_quick``, ...) in
+:mod:`hiddpg.algorithms`. :func:`make_config` builds a validated :class:`TrainConfig` from
+``(algo, task, preset, sets)`` before anything is compiled, so a bad value fails at once with a
+message naming it.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from dataclasses import dataclass
 
+from hiddpg.algorithms import get_algorithm
 from hiddpg.configs import (
-    ALGORITHMS,
-    HI_DDPG_ALGORITHMS,
     ActorChoice,
     DDPGConfig,
     HDDPGConfig,
@@ -25,7 +26,7 @@ from hiddpg.configs import (
     NoiseConfig,
     TrainConfig,
 )
-from hiddpg.envs import task_name
+from hiddpg.envs import TASKS, task_name
 from hiddpg.overrides import apply_overrides
 
 PRESETS = ("paper", "quick")
@@ -36,8 +37,8 @@ STABILIZE = {"tau": 0.01, "action_l2": 1.0}
 
 
 def task_family(task: str) -> str:
-    """``"puck"`` or ``"arm"``."""
-    return "arm" if task_name(task).startswith("Arm") else "puck"
+    """The family the task declares (:func:`hiddpg.register_task`): puck, arm or custom."""
+    return TASKS[task_name(task)].family
 
 
 #: Tasks that terminate (collisions): critics on the environment reward do not bootstrap at the
@@ -52,6 +53,9 @@ ARM_ACTION_L2 = 0.0
 #: Tasks whose high-level noise falls linearly to 0 over the run: goals drawn near the obstacle
 #: collide and blur the high critic's values of the target [decision; docs/algorithms.md].
 DECAYING_HIGH_NOISE_TASKS = ("ArmObstacle",)
+
+#: The trajectory tasks: HI-DDPG pays a switch cost and holds goals there [paper, decision].
+SWITCHING_TASKS = ("PuckTrajectory1", "PuckTrajectory2", "PuckTrajectory3")
 
 #: The trajectory tasks' high-level choice: the critic may hold the goal to the end, which the
 #: policy gradient cannot find (the return jumps by the switch cost there) [decision].
@@ -74,103 +78,142 @@ ARM_HIGH_CRITIC = ("agent.high_hindsight.probability=1", "agent.high.huber.delta
                    "agent.high.huber.late_delta=3", "agent.high.huber.late_episode=2160")
 
 
-def _paper_agent(algo: str, task: str) -> Any:
-    family, name = task_family(task), task_name(task)
-    arm = family == "arm"
+@dataclass(frozen=True)
+class FamilyValues:
+    """The values of a task family that the presets use (the paper's, or [decision])."""
+
+    hidden: tuple[int, ...]
+    sigma: float
+    lr_decay: float
+    action_l2: float
+    high_lr: float
+    low_lr: float
+    high_buffer: int
+    low_buffer: int
+    duration_min: float
+    duration_max: float
+    pretrain_episodes: int
+    quick_pretrain_episodes: int
+    budgets: tuple[tuple[str, tuple[int, int, int]], ...]
+    """Per preset: episodes, eval_every, chunk_episodes."""
+
+
+PUCK = FamilyValues(hidden=(300, 300), sigma=0.1, lr_decay=1.0,
+                    action_l2=STABILIZE["action_l2"], high_lr=2e-5, low_lr=2e-4,
+                    high_buffer=100_000, low_buffer=10_000, duration_min=1.0, duration_max=30.0,
+                    pretrain_episodes=0, quick_pretrain_episodes=300,
+                    budgets=(("paper", (3000, 20, 200)), ("quick", (1500, 10, 100))))
+ARM = FamilyValues(hidden=(300, 300, 300), sigma=0.15, lr_decay=0.99, action_l2=ARM_ACTION_L2,
+                   high_lr=5e-5, low_lr=5e-4, high_buffer=1_000_000, low_buffer=100_000,
+                   duration_min=2.0, duration_max=40.0, pretrain_episodes=1000,
+                   quick_pretrain_episodes=200,
+                   budgets=(("paper", (3000, 20, 100)), ("quick", (1500, 10, 100))))
+#: Values per family; a user's ``custom`` task gets the puck's, a generic default [decision].
+FAMILY_VALUES = {"puck": PUCK, "arm": ARM, "custom": PUCK}
+
+
+def family_values(task: str) -> FamilyValues:
+    """The preset values of ``task``'s family."""
+    return FAMILY_VALUES[task_family(task)]
+
+
+def _ddpg(task: str, v: FamilyValues) -> DDPGConfig:
+    return DDPGConfig(hidden=v.hidden, noise=NoiseConfig(sigma=v.sigma), buffer_size=100_000,
+                      lr_decay=v.lr_decay, action_l2=v.action_l2,
+                      tau=STABILIZE["tau"], end_is_terminal=task_name(task) in TERMINATING_TASKS)
+
+
+def ddpg_paper(task: str) -> DDPGConfig:
+    """Flat DDPG with the family's networks, noise, decay and action penalty."""
+    return _ddpg(task, family_values(task))
+
+
+def hi_ddpg_paper(task: str) -> HIDDPGConfig:
+    """HI-DDPG with the family's levels; the trajectory tasks pay a switch cost and may hold."""
+    v, name = family_values(task), task_name(task)
     end_terminal = name in TERMINATING_TASKS
-    action_l2 = ARM_ACTION_L2 if arm else STABILIZE["action_l2"]
-    hidden = (300, 300, 300) if arm else (300, 300)
-    noise = NoiseConfig(sigma=0.15 if arm else 0.1)
-    if algo == "ddpg":
-        return DDPGConfig(hidden=hidden, noise=noise, buffer_size=100_000,
-                          lr_decay=0.99 if arm else 1.0, action_l2=action_l2,
-                          tau=STABILIZE["tau"], end_is_terminal=end_terminal)
-    if algo in HI_DDPG_ALGORITHMS:
-        switching = name.startswith("PuckTrajectory")
-        high_noise = (dataclasses.replace(noise, final_sigma=0.0)
-                      if name in DECAYING_HIGH_NOISE_TASKS else noise)
-        high = LevelConfig(hidden=hidden, lr=5e-5 if arm else 2e-5, gamma=0.99,
-                           buffer_size=1_000_000 if arm else 100_000, noise=high_noise,
-                           tau=STABILIZE["tau"], invert_gradients=True,
-                           end_is_terminal=end_terminal)
-        low = LevelConfig(hidden=hidden, lr=5e-4 if arm else 2e-4, gamma=0.95,
-                          buffer_size=100_000 if arm else 10_000, noise=noise,
-                          tau=STABILIZE["tau"], action_l2=action_l2,
-                          env_terminal=not end_terminal)
-        return HIDDPGConfig(
-            high=high, low=low,
-            duration_min=2.0 if arm else 1.0, duration_max=40.0 if arm else 30.0,
-            switch_cost=10.0 if switching else 0.0,
-            pretrain_episodes=1000 if arm else 0,
-            lr_decay=0.99 if arm else 1.0, high_update_on="step",
-            pretrain_fills_high_buffer=True, choice=HOLD_CHOICE if switching else ActorChoice(),
-        )
-    if algo == "h-ddpg":
-        skill = DDPGConfig(hidden=hidden, noise=noise, buffer_size=100_000, gamma=0.99,
-                           lr_decay=0.99 if arm else 1.0, action_l2=action_l2,
-                           tau=STABILIZE["tau"], end_is_terminal=end_terminal)
-        return HDDPGConfig(skill=skill, meta_hidden=hidden)
-    raise ValueError(f"no paper preset for algorithm {algo!r} yet")
+    switching = name in SWITCHING_TASKS
+    noise = NoiseConfig(sigma=v.sigma)
+    high_noise = (dataclasses.replace(noise, final_sigma=0.0)
+                  if name in DECAYING_HIGH_NOISE_TASKS else noise)
+    high = LevelConfig(hidden=v.hidden, lr=v.high_lr, gamma=0.99, buffer_size=v.high_buffer,
+                       noise=high_noise, tau=STABILIZE["tau"], invert_gradients=True,
+                       end_is_terminal=end_terminal)
+    low = LevelConfig(hidden=v.hidden, lr=v.low_lr, gamma=0.95, buffer_size=v.low_buffer,
+                      noise=noise, tau=STABILIZE["tau"], action_l2=v.action_l2,
+                      env_terminal=not end_terminal)
+    return HIDDPGConfig(
+        high=high, low=low, duration_min=v.duration_min, duration_max=v.duration_max,
+        switch_cost=10.0 if switching else 0.0, pretrain_episodes=v.pretrain_episodes,
+        lr_decay=v.lr_decay, high_update_on="step", pretrain_fills_high_buffer=True,
+        choice=HOLD_CHOICE if switching else ActorChoice(),
+    )
 
 
-def _quick_agent(algo: str, task: str) -> Any:
-    agent = _paper_agent(algo, task)
-    hidden = (64, 64)
-    if isinstance(agent, DDPGConfig):
-        return dataclasses.replace(agent, hidden=hidden, actor_lr=1e-3, critic_lr=1e-3,
-                                   buffer_size=20_000, learning_starts=300)
-    if isinstance(agent, HIDDPGConfig):
-        return dataclasses.replace(
-            agent,
-            high=dataclasses.replace(agent.high, hidden=hidden, lr=1e-3, buffer_size=5_000,
-                                     batch_size=32),
-            low=dataclasses.replace(agent.low, hidden=hidden, lr=1e-3, buffer_size=10_000),
-            learning_starts=300, high_learning_starts=32,
-            pretrain_episodes=300 if task_family(task) == "puck" else 200,
-        )
-    if isinstance(agent, HDDPGConfig):
-        skill = dataclasses.replace(agent.skill, hidden=hidden, actor_lr=1e-3, critic_lr=1e-3,
-                                    buffer_size=20_000, learning_starts=300)
-        return dataclasses.replace(agent, skill=skill, meta_hidden=hidden, meta_lr=1e-3,
-                                   meta_buffer_size=20_000)
-    return agent
+def h_ddpg_paper(task: str) -> HDDPGConfig:
+    """h-DDPG whose skills are the family's DDPG and whose meta-critic has its networks."""
+    skill = dataclasses.replace(_ddpg(task, family_values(task)), gamma=0.99)
+    return HDDPGConfig(skill=skill, meta_hidden=skill.hidden)
 
 
-#: training budget per (preset, family): episodes, eval_every, chunk_episodes
-_BUDGETS = {
-    ("paper", "puck"): (3000, 20, 200),
-    ("paper", "arm"): (3000, 20, 100),
-    ("quick", "puck"): (1500, 10, 100),
-    ("quick", "arm"): (1500, 10, 100),
-}
+#: The networks of the ``quick`` preset.
+QUICK_HIDDEN = (64, 64)
+
+
+def ddpg_quick(task: str) -> DDPGConfig:
+    """``ddpg_paper`` with small networks, faster learning rates and a short random phase."""
+    return dataclasses.replace(ddpg_paper(task), hidden=QUICK_HIDDEN, actor_lr=1e-3,
+                               critic_lr=1e-3, buffer_size=20_000, learning_starts=300)
+
+
+def hi_ddpg_quick(task: str) -> HIDDPGConfig:
+    """``hi_ddpg_paper`` with small networks and buffers and a short pre-training."""
+    agent = hi_ddpg_paper(task)
+    return dataclasses.replace(
+        agent,
+        high=dataclasses.replace(agent.high, hidden=QUICK_HIDDEN, lr=1e-3, buffer_size=5_000,
+                                 batch_size=32),
+        low=dataclasses.replace(agent.low, hidden=QUICK_HIDDEN, lr=1e-3, buffer_size=10_000),
+        learning_starts=300, high_learning_starts=32,
+        pretrain_episodes=family_values(task).quick_pretrain_episodes,
+    )
+
+
+def h_ddpg_quick(task: str) -> HDDPGConfig:
+    """``h_ddpg_paper`` with small networks and the quick DDPG settings for the skills."""
+    agent = h_ddpg_paper(task)
+    skill = dataclasses.replace(agent.skill, hidden=QUICK_HIDDEN, actor_lr=1e-3,
+                                critic_lr=1e-3, buffer_size=20_000, learning_starts=300)
+    return dataclasses.replace(agent, skill=skill, meta_hidden=QUICK_HIDDEN, meta_lr=1e-3,
+                               meta_buffer_size=20_000)
 
 
 def make_config(
     algo: str, task: str, preset: str = "paper", sets: list[str] | tuple[str, ...] = ()
 ) -> TrainConfig:
     """The validated config for ``algo`` on ``task`` under ``preset`` with ``sets`` applied."""
-    if algo not in ALGORITHMS:
-        raise ValueError(f"unknown algorithm {algo!r}; choose one of {list(ALGORITHMS)}")
+    algorithm = get_algorithm(algo)
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r}; choose one of {list(PRESETS)}")
     task = task_name(task)
-    agent = _paper_agent(algo, task) if preset == "paper" else _quick_agent(algo, task)
-    episodes, eval_every, chunk = _BUDGETS[(preset, task_family(task))]
+    agent = algorithm.preset(preset, task)
+    episodes, eval_every, chunk = dict(family_values(task).budgets)[preset]
     cfg = TrainConfig(algo=algo, task=task, agent=agent, episodes=episodes,
                       eval_every=eval_every, chunk_episodes=chunk, preset=preset)
-    cfg = apply_overrides(cfg, sets)
-    if isinstance(cfg.agent, HDDPGConfig) and not any(
-            s.strip().startswith("agent.epsilon_decay_episodes") for s in sets):
-        # ε decays over the first epsilon_fraction of *this* run's episodes (spec §4)
-        decay = max(1, round(cfg.agent.epsilon_fraction * cfg.episodes))
-        cfg = dataclasses.replace(
-            cfg, agent=dataclasses.replace(cfg.agent, epsilon_decay_episodes=decay))
-    if isinstance(cfg.agent, HIDDPGConfig):
-        cfg = _noise_decay_over_run(cfg, sets)
-    return cfg
+    return algorithm.finished(apply_overrides(cfg, sets), sets)
 
 
-def _noise_decay_over_run(cfg: TrainConfig, sets: list[str] | tuple[str, ...]) -> TrainConfig:
+def h_ddpg_finish(cfg: TrainConfig, sets: list[str] | tuple[str, ...]) -> TrainConfig:
+    """ε decays over the first ``epsilon_fraction`` of this run's episodes (spec §4), unless
+    ``agent.epsilon_decay_episodes`` is set."""
+    if any(s.strip().startswith("agent.epsilon_decay_episodes") for s in sets):
+        return cfg
+    decay = max(1, round(cfg.agent.epsilon_fraction * cfg.episodes))
+    return dataclasses.replace(
+        cfg, agent=dataclasses.replace(cfg.agent, epsilon_decay_episodes=decay))
+
+
+def hi_ddpg_finish(cfg: TrainConfig, sets: list[str] | tuple[str, ...]) -> TrainConfig:
     """A level whose noise decays (``final_sigma >= 0``) reaches its end with the run, unless
     ``agent.<level>.noise.decay_episodes`` is set."""
     levels = {}

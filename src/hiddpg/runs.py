@@ -2,7 +2,8 @@
 
 A run lives in ``runs/<name>/`` (name default ``<algo>-<task>-<timestamp>``)::
 
-    config.json         the TrainConfig (configs.to_dict), the seeds, hiddpg/jax versions
+    config.json         the TrainConfig (configs.to_dict), the seeds, hiddpg/jax versions,
+                        and a user's task registration (to register it again on resume)
     metrics.csv         one row per seed per training episode (see METRIC_COLUMNS)
     checkpoint.msgpack  the whole vmapped RunState (flax msgpack), rewritten after every chunk
     progress.json       episodes done, wall time, status: running / finished / failed /
@@ -35,6 +36,7 @@ import numpy as np
 from flax import serialization
 
 from hiddpg.configs import TrainConfig, from_dict, to_dict
+from hiddpg.envs.registry import BUILTIN_TASKS, TASKS, restore_task
 from hiddpg.train import RunState, Trainer, seed_keys
 
 CONFIG_FILE = "config.json"
@@ -124,6 +126,8 @@ class Run:
                 "versions": {"hiddpg": hiddpg.__version__, "jax": jax.__version__,
                              "python": sys.version.split()[0]},
                 "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
+        if config.task not in BUILTIN_TASKS and config.task in TASKS:  # a user's task
+            meta["task"] = TASKS[config.task].declaration()
         atomic_write(path / CONFIG_FILE, _json_bytes(meta))
         run = cls(path, config, tuple(int(s) for s in seeds))
         run.write_progress(0, 0.0, "running")
@@ -136,6 +140,10 @@ class Run:
         if not (path / CONFIG_FILE).is_file():
             raise FileNotFoundError(f"{path} is not a run directory (no {CONFIG_FILE})")
         meta = json.loads((path / CONFIG_FILE).read_text())
+        try:  # a user's task is registered again; if that fails, using it says it is unknown
+            restore_task(meta.get("task"))
+        except ValueError:
+            pass
         run = cls(path, from_dict(meta["config"]), tuple(meta["seeds"]))
         if (path / METRICS_FILE).is_file():
             with open(path / METRICS_FILE, newline="") as f:

@@ -20,20 +20,22 @@ and ``vmap``-ped, and a skill with fewer outputs ignores the extra ones.
   ``(u + 1) / 2 ∈ [0, 1]`` are the activations of the skill's agonists, all other muscles get 0
   [decision, spec §4].
 
-:func:`skill_patterns` picks the patterns for an environment.
+A task declares its skills in the task registry (``skills=`` of :func:`hiddpg.register_task`, a
+factory ``(env, config) -> SkillPatterns``); :func:`task_skills` builds them for an environment.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import re
 from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from hiddpg.envs.arm_tasks import ArmObstacle, ArmReach
-from hiddpg.envs.puckworld import POSITION, PuckObstacle, PuckTrajectory
+from hiddpg.envs.puckworld import POSITION
+from hiddpg.envs.registry import TASKS, spec_of
 
 #: PuckWorld skill directions ``d_k`` in the ``(x, y)`` plane [paper / spec §4].
 PUCK_DIRECTIONS = ((1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0))
@@ -144,14 +146,54 @@ class ArmSkills(SkillPatterns):
         return activation @ jnp.asarray(self.selection())[skill]
 
 
+def puck_skills(env: Any, config: Any) -> PuckSkills:
+    """The PuckWorld tasks' skills, at the speed ``config.puck_max_speed``."""
+    del env
+    return PuckSkills(max_speed=config.puck_max_speed)
+
+
+def arm_skills(env: Any, config: Any) -> ArmSkills:
+    """The arm tasks' skills."""
+    del env, config
+    return ArmSkills()
+
+
+def task_skills(env: Any, config: Any) -> SkillPatterns:
+    """The skills ``env``'s registered task declares, built for the h-DDPG ``config``;
+    ``ValueError`` saying what to declare if it declares none."""
+    spec = spec_of(env)
+    factory = spec.skill_factory() if spec is not None else None
+    if factory is None:
+        what = (f"task {spec.name!r} ({type(env).__name__})" if spec is not None
+                else f"{type(env).__name__} (not a registered task)")
+        raise ValueError(
+            f"h-DDPG has no skill patterns for {what}: declare them with "
+            "hiddpg.register_task(name, entry, skills=...), a factory (env, config) -> "
+            "SkillPatterns (see hiddpg.agents.skills); tasks with skills: "
+            f"{_compact([s.name for s in TASKS.values() if s.skills is not None])}")
+    skills = factory(env, config)
+    if not isinstance(skills, SkillPatterns):
+        raise ValueError(f"the skills of task {spec.name!r} are a {type(skills).__name__}, "
+                         "not a hiddpg.agents.skills.SkillPatterns")
+    return skills
+
+
 def skill_patterns(env: Any, puck_max_speed: float = 3.0) -> SkillPatterns:
-    """The movement patterns of ``env``'s task family; ``ValueError`` if it has none."""
-    if isinstance(env, PuckTrajectory | PuckObstacle):
-        return PuckSkills(max_speed=puck_max_speed)
-    if isinstance(env, ArmReach | ArmObstacle):
-        return ArmSkills()
-    raise ValueError(
-        f"h-DDPG has no skill patterns for {type(env).__name__}; patterns exist for "
-        "the PuckWorld tasks (PuckTrajectory1-3, PuckObstacle: velocity along ±x, ±y) and the "
-        "arm tasks (ArmReach, ArmObstacle: S-F/Eb-F, S-F/Eb-Ex, S-Ex/Eb-F, S-Ex/Eb-Ex)"
-    )
+    """:func:`task_skills` with the default h-DDPG config but ``puck_max_speed``."""
+    from hiddpg.configs import HDDPGConfig
+
+    return task_skills(env, HDDPGConfig(puck_max_speed=puck_max_speed))
+
+
+def _compact(names: list[str]) -> str:
+    """``PuckTrajectory1, PuckTrajectory2, PuckTrajectory3`` as ``PuckTrajectory1-3``."""
+    out: list[list] = []
+    for name in names:
+        match = re.fullmatch(r"(.*?)(\d+)", name)
+        stem, n = (match.group(1), int(match.group(2))) if match else (name, None)
+        if out and n is not None and out[-1][0] == stem and out[-1][2] == n - 1:
+            out[-1][2] = n
+        else:
+            out.append([stem, n, n])
+    return ", ".join(stem if a is None else f"{stem}{a}" + (f"-{b}" if b != a else "")
+                     for stem, a, b in out)

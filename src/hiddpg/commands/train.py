@@ -20,9 +20,9 @@ import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from hiddpg.algorithms import algorithm_names
 from hiddpg.commands.common import Parser as _Parser
 from hiddpg.commands.common import UsageError, argv_or_help
-from hiddpg.configs import ALGORITHMS
 from hiddpg.reporter import ConsoleReporter
 from hiddpg.runner import (
     FAILED,
@@ -42,9 +42,11 @@ PROG = "hiddpg train"
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog=PROG, description="Train ALGO on TASK for several seeds at once "
                 "(one jitted, vmapped run); results go to OUT/NAME/.")
-    p.add_argument("algo", nargs="?", metavar="ALGO", help=f"one of {', '.join(ALGORITHMS)}")
+    p.add_argument("algo", nargs="?", metavar="ALGO",
+                   help=f"one of {', '.join(algorithm_names())}")
     p.add_argument("task", nargs="?", metavar="TASK",
-                   help="a task, e.g. PuckTrajectory2 (see `hiddpg envs list`)")
+                   help="a task, e.g. PuckTrajectory2 (see `hiddpg envs list`), or your "
+                   "environment as module:Class (imported and registered)")
     p.add_argument("--seeds", default=None,
                    help="seeds: a range '0-14', a list '0,3,5' or one '7' (default 0-14)")
     p.add_argument("--episodes", type=int, default=None,

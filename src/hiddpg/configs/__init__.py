@@ -12,14 +12,22 @@ from hiddpg.configs.h_ddpg import HDDPGConfig
 from hiddpg.configs.hi_ddpg import HIDDPGConfig
 from hiddpg.configs.parts import ActionHindsight, GoalHindsight, HuberLoss, RestTerm
 from hiddpg.configs.run import (
-    ALGORITHMS,
-    HI_DDPG_ALGORITHMS,
     AgentConfig,
     TrainConfig,
     from_dict,
     register_config_type,
     to_dict,
 )
+
+
+def __getattr__(name: str):
+    """``ALGORITHMS`` and ``HI_DDPG_ALGORITHMS``, derived from :mod:`hiddpg.algorithms`."""
+    if name in ("ALGORITHMS", "HI_DDPG_ALGORITHMS"):
+        from hiddpg.configs import run
+
+        return getattr(run, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = ["ALGORITHMS", "CHOICES", "HI_DDPG_ALGORITHMS", "ActionHindsight", "ActorChoice",
            "AgentConfig", "CriticDurations", "DDPGConfig", "GoalHindsight", "HDDPGConfig",

@@ -14,10 +14,6 @@ from hiddpg.configs.h_ddpg import HDDPGConfig
 from hiddpg.configs.hi_ddpg import HIDDPGConfig
 from hiddpg.configs.parts import ActionHindsight, GoalHindsight, HuberLoss, RestTerm
 
-ALGORITHMS = ("ddpg", "hi-ddpg", "hi-ddpg-wo-model", "h-ddpg")
-HI_DDPG_ALGORITHMS = ("hi-ddpg", "hi-ddpg-wo-model")
-"""The algorithms whose agent is :class:`HIDDPGConfig`'s (HI-DDPG with and without model)."""
-
 AgentConfig = DDPGConfig | HIDDPGConfig | HDDPGConfig
 
 
@@ -29,7 +25,7 @@ class TrainConfig:
     """
 
     algo: str
-    """One of :data:`ALGORITHMS`."""
+    """A registered algorithm (:mod:`hiddpg.algorithms`)."""
     task: str
     """A registered task, e.g. ``hiddpg/PuckTrajectory2-v0``."""
     agent: Any
@@ -46,8 +42,11 @@ class TrainConfig:
     """The preset this config was built from (recorded for provenance)."""
 
     def __post_init__(self) -> None:
-        if self.algo not in ALGORITHMS:
-            raise ValueError(f"algo={self.algo!r} is unknown; choose one of {list(ALGORITHMS)}")
+        from hiddpg.algorithms import algorithm_names
+
+        if self.algo not in algorithm_names():
+            raise ValueError(f"algo={self.algo!r} is unknown; choose one of "
+                             f"{list(algorithm_names())}")
         positive(self, "episodes", "eval_every", "chunk_episodes")
         for name in ("episodes", "eval_every", "chunk_episodes"):
             if not isinstance(getattr(self, name), int):
@@ -56,6 +55,17 @@ class TrainConfig:
     @property
     def env_overrides(self) -> dict[str, Any]:
         return dict(self.env)
+
+
+def __getattr__(name: str) -> Any:
+    """``ALGORITHMS`` (every registered algorithm) and ``HI_DDPG_ALGORITHMS`` (those with a
+    :class:`HIDDPGConfig`), read from :mod:`hiddpg.algorithms` when asked for."""
+    if name in ("ALGORITHMS", "HI_DDPG_ALGORITHMS"):
+        from hiddpg import algorithms
+
+        return (algorithms.algorithm_names() if name == "ALGORITHMS"
+                else algorithms.names_with_config(HIDDPGConfig))
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def to_dict(cfg: Any) -> dict[str, Any]:

@@ -18,60 +18,26 @@ import jax.numpy as jnp
 import numpy as np
 from jax.flatten_util import ravel_pytree
 
-from hiddpg.envs.arm import ArmParams
 from hiddpg.envs.base import Environment
-from hiddpg.envs.puckworld import PuckParams
-from hiddpg.envs.registry import TASKS, make, task_name
+from hiddpg.envs.bounds import ARM_MAX_SPEED, UNBOUNDED, unbounded
+from hiddpg.envs.registry import TASKS, TaskSpec, make, spec_of, task_name
 
-#: Bound of observation entries no rule below covers (finite, so ``check_env`` does not warn).
-UNBOUNDED = 1.0e4
-#: Bound on the arm's joint speeds in the observation box, rad/s, times ``max(1, force_scale)``
-#: [decision]: the fastest movement found with on/off activations is ~17 rad/s.
-ARM_MAX_SPEED = 50.0
+__all__ = ["ARM_MAX_SPEED", "UNBOUNDED", "HiddpgEnv", "env_ids", "observation_bounds",
+           "register_envs"]
 
 
-def _puck_bounds(params: PuckParams) -> tuple[np.ndarray, np.ndarray]:
-    """A box no episode can leave: per axis, ``|F| <= force_max`` gives the recursion
-    ``v' <= |1 - damping dt| v + dt force_max``, ``p' <= p + dt v`` over ``max_steps``."""
-    x0 = np.abs(np.asarray(params.init_state, np.float64))
-    p, v = x0[:2].max(), x0[2:].max()
-    dt, decay = float(params.dt), abs(1.0 - float(params.damping) * float(params.dt))
-    vmax = v
-    for _ in range(params.max_steps):
-        p, v = p + dt * v, decay * v + dt * float(params.force_max)
-        vmax = max(vmax, v)
-    high = np.array([p, p, vmax, vmax]) * 1.5 + 1.0  # margin for float32 rounding
-    return -high, high
-
-
-def _arm_bounds(core: Environment, params: ArmParams) -> tuple[np.ndarray, np.ndarray]:
-    """Joint limits for angles (and for ArmReach's target angles), ``ARM_MAX_SPEED`` for speeds."""
-    speed = ARM_MAX_SPEED * max(1.0, float(params.force_scale))
-    lo, hi = np.asarray(params.joint_low, np.float64), np.asarray(params.joint_high, np.float64)
-    low = np.concatenate([lo, [-speed, -speed]])
-    high = np.concatenate([hi, [speed, speed]])
-    extra = core.obs_dim - len(low)  # ArmReach appends the target angles
-    if extra == 2:
-        low, high = np.concatenate([low, lo]), np.concatenate([high, hi])
-    elif extra:
-        low = np.concatenate([low, np.full(extra, -UNBOUNDED)])
-        high = np.concatenate([high, np.full(extra, UNBOUNDED)])
-    return low, high
-
-
-def observation_bounds(core: Environment, params: Any) -> tuple[np.ndarray, np.ndarray]:
-    """The observation box: ``core.observation_bounds(params)`` when the core defines it; for
-    the puck a box the dynamics cannot leave within the horizon; for the arm the joint limits
-    and ``±ARM_MAX_SPEED``; else ``±UNBOUNDED``."""
-    if hasattr(core, "observation_bounds"):
+def observation_bounds(core: Environment, params: Any, spec: TaskSpec | None = None
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """The observation box: the declared ``obs_bounds`` of ``spec`` (default: the task that
+    built ``core``), else ``core.observation_bounds(params)``, else ``±UNBOUNDED``."""
+    spec = spec if spec is not None else spec_of(core)
+    declared = spec.bounds_function() if spec is not None else None
+    if declared is not None:
+        low, high = declared(core, params)
+    elif hasattr(core, "observation_bounds"):
         low, high = core.observation_bounds(params)
-    elif isinstance(params, PuckParams):
-        low, high = _puck_bounds(params)
-    elif isinstance(params, ArmParams):
-        low, high = _arm_bounds(core, params)
     else:
-        high = np.full(core.obs_dim, UNBOUNDED)
-        low = -high
+        low, high = unbounded(core, params)
     return np.asarray(low, np.float32), np.asarray(high, np.float32)
 
 
@@ -143,7 +109,7 @@ class HiddpgEnv(gymnasium.Env[np.ndarray, np.ndarray]):
 
     Args:
         task: ``"ArmReach"``, ``"hiddpg/ArmReach-v0"`` or ``"ArmReach-v0"`` (see
-            :data:`hiddpg.envs.TASKS`).
+            :data:`hiddpg.envs.TASKS`; :func:`hiddpg.register_task` adds tasks).
         render_mode: ``None`` or ``"rgb_array"`` (``render()`` returns an ``(H, W, 3)`` uint8
             frame drawn by :mod:`hiddpg.render`).
         **params: overrides of the core's params (``field="cw"``, ``dt=0.05``, ...); an unknown
@@ -187,7 +153,7 @@ class HiddpgEnv(gymnasium.Env[np.ndarray, np.ndarray]):
         dt = float(getattr(self.params, "dt", self.core.dt))  # the puck's dt is a parameter
         self.metadata = {**self.metadata, "render_fps": max(1, round(1.0 / dt))}
         self.max_steps = self.core.max_steps(self.params)
-        low, high = observation_bounds(self.core, self.params)
+        low, high = observation_bounds(self.core, self.params, TASKS[self.task])
         self.observation_space = gymnasium.spaces.Box(low, high, (self.core.obs_dim,), np.float32)
         self.action_space = gymnasium.spaces.Box(
             np.float32(self.core.action_low), np.float32(self.core.action_high),

@@ -27,7 +27,8 @@ from typing import Any
 import numpy as np
 
 from hiddpg import runner
-from hiddpg.configs import HI_DDPG_ALGORITHMS, TrainConfig
+from hiddpg.algorithms import get_algorithm
+from hiddpg.configs import HIDDPGConfig, TrainConfig
 from hiddpg.experiments.rundata import SNAPSHOT_DIR, ExperimentError
 from hiddpg.presets import ARM_HIGH_CRITIC, CRITIC_DURATIONS
 from hiddpg.reporter import ConsoleReporter
@@ -96,9 +97,9 @@ def budget_group(scale: str, task: str) -> str:
     """The key of ``task``'s budget at ``scale``: ``"trajectory"`` (PuckTrajectory*) where
     that scale has its own, else the family (``"puck"`` or ``"arm"``)."""
     from hiddpg.envs import task_name
-    from hiddpg.presets import task_family
+    from hiddpg.presets import SWITCHING_TASKS, task_family
 
-    if task_name(task).startswith("PuckTrajectory") and (scale, "trajectory") in BUDGETS:
+    if task_name(task) in SWITCHING_TASKS and (scale, "trajectory") in BUDGETS:
         return "trajectory"
     return task_family(task)
 
@@ -163,7 +164,7 @@ class Context:
         episodes = self.episodes or b.episodes
         sets = [f"episodes={episodes}", f"eval_every={min(b.eval_every, episodes)}",
                 f"chunk_episodes={b.chunk_episodes}"]
-        if algo in HI_DDPG_ALGORITHMS:
+        if get_algorithm(algo).config is HIDDPGConfig:
             sets += list(b.hi_ddpg_sets)
         return sets + expand_sets(make_config(algo, task, b.preset, sets), self.sets)
 

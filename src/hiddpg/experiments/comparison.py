@@ -23,6 +23,7 @@ from hiddpg.experiments import stats
 from hiddpg.experiments.common import Context, available, ensure_run
 from hiddpg.experiments.report import fmt, fmt_ci, fmt_pm, pyplot, save_figure, write_section
 from hiddpg.experiments.rundata import RunData, load_run
+from hiddpg.presets import task_family
 from hiddpg.runs import Run
 
 COMPARED = ("hi-ddpg", "h-ddpg", "hi-ddpg-wo-model", "ddpg")
@@ -223,7 +224,7 @@ def run_comparison(ctx: Context, name: str, algos: Sequence[str] = COMPARED) -> 
     title = f"Fig. {name[-1]}: {task}, {' vs '.join(runs)}"
     figures = save_figure(plot_comparison(comp, title), ctx.figure_stem(name))
     numbers = summary_numbers(comp)
-    success = success_rates(runs) if task.startswith("Arm") else None
+    success = success_rates(runs) if task_family(task) == "arm" else None
     if success:
         numbers["success_rate"] = success
     markdown = "\n".join([*notes, "" if notes else "", summary_markdown(numbers, success)])
