@@ -75,7 +75,7 @@ def test_c_action_reward_learns_the_best_action_and_its_value():
     assert q_value(run, 0.0, 0.0) < q_value(run, 0.0) - 0.1  # Q peaks near the optimum
     # the buffer stores the applied (unit-box) actions next to their rewards
     buf, n = run.state.buffer, int(run.state.buffer.size)
-    a, r = np.asarray(buf.data["action"][:n, 0]), np.asarray(buf.data["reward"][:n])
+    a, r = np.asarray(buf.data.action[:n, 0]), np.asarray(buf.data.reward[:n])
     np.testing.assert_allclose(r, -((a - 0.5) ** 2), rtol=1e-6, atol=1e-7)
     metrics, _ = run.agent.evaluate(jax.random.PRNGKey(1), run.state, run.params)
     assert float(metrics["return"]) > -0.0025

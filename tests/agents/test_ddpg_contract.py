@@ -52,7 +52,7 @@ def test_end_is_terminal_stops_the_bootstrap_at_the_time_limit():
     agent = make_ddpg(cfg, env)
     state, metrics = probes.make_train(agent, env.default_params(), 600)(jax.random.PRNGKey(0))
     np.testing.assert_array_equal(metrics["length"], 1)
-    assert bool(np.all(np.asarray(state.buffer.data["terminated"][: int(state.buffer.size)])))
+    assert bool(np.all(np.asarray(state.buffer.data.terminated[: int(state.buffer.size)])))
     assert probes.q_value(agent, state, 0.0) == pytest.approx(1.0, abs=0.1)  # not 1 / (1 - γ)
 
 
@@ -100,7 +100,7 @@ def test_actions_are_mapped_onto_the_env_box():
                                   [0.0, 0.5, 1.0])
     params = env.default_params(target=0.75)
     state, _ = probes.make_train(agent, params, 200)(jax.random.PRNGKey(0))
-    a, r = np.asarray(state.buffer.data["action"][:200, 0]), state.buffer.data["reward"][:200]
+    a, r = np.asarray(state.buffer.data.action[:200, 0]), state.buffer.data.reward[:200]
     assert a.min() < -0.8 and a.max() > 0.8  # stored in the unit box, uniformly at random
     np.testing.assert_allclose(r, -(((a + 1) / 2 - 0.75) ** 2), rtol=1e-5, atol=1e-7)
 

@@ -25,6 +25,7 @@ from hiddpg.agents.h_ddpg import (
     make_hddpg,
 )
 from hiddpg.agents.skills import ArmSkills, PuckSkills, skill_patterns
+from hiddpg.agents.transition import Transition
 from hiddpg.configs import HDDPGConfig, from_dict, to_dict
 from hiddpg.envs import make as make_env
 from hiddpg.presets import make_config
@@ -141,14 +142,15 @@ def test_meta_update_fits_the_dqn_target():
     _, agent, _, init, _, _ = setup()
     state = init(jax.random.PRNGKey(0))
     k = jax.random.split(jax.random.PRNGKey(1), 3)
-    batch = {"obs": jax.random.normal(k[0], (8, 4)), "next_obs": jax.random.normal(k[1], (8, 4)),
-             "skill": jnp.arange(8) % 4, "reward": jax.random.normal(k[2], (8,)),
-             "terminated": jnp.arange(8) % 3 == 0}
+    batch = Transition(obs=jax.random.normal(k[0], (8, 4)), context=jnp.zeros((8, 0)),
+                       action=jnp.arange(8) % 4, reward=jax.random.normal(k[2], (8,)),
+                       next_obs=jax.random.normal(k[1], (8, 4)),
+                       terminated=jnp.arange(8) % 3 == 0)
     meta = state.meta.replace(target=jax.tree_util.tree_map(lambda x: 2 * x, state.meta.params))
     new, loss = jax.jit(agent.meta_update)(meta, batch)
-    q = np.asarray(agent.meta_q(meta.params, batch["obs"]))[np.arange(8), batch["skill"]]
-    next_q = np.asarray(agent.meta_q(meta.target, batch["next_obs"])).max(-1)
-    y = np.asarray(batch["reward"]) + 0.99 * (1 - np.asarray(batch["terminated"])) * next_q
+    q = np.asarray(agent.meta_q(meta.params, batch.obs))[np.arange(8), batch.action]
+    next_q = np.asarray(agent.meta_q(meta.target, batch.next_obs)).max(-1)
+    y = np.asarray(batch.reward) + 0.99 * (1 - np.asarray(batch.terminated)) * next_q
     assert float(loss) == pytest.approx(np.mean((y - q) ** 2), rel=1e-5)
     tau = agent.config.meta_tau
     jax.tree_util.tree_map(lambda t, p, o: np.testing.assert_allclose(
@@ -163,8 +165,8 @@ def test_each_transition_goes_to_the_meta_replay_and_the_chosen_skills():
     state = store(state, obs, jnp.int32(2), unit, jnp.float32(-1.0), obs, False, True)
     state = store(state, obs, jnp.int32(0), unit, jnp.float32(-1.0), obs, False, False)
     np.testing.assert_array_equal(state.skill_buffers.size, [0, 0, 1, 0])
-    assert int(state.meta_buffer.size) == 1 and int(state.meta_buffer.data["skill"][0]) == 2
-    np.testing.assert_array_equal(state.skill_buffers.data["action"][2, 0], [0.5])
+    assert int(state.meta_buffer.size) == 1 and int(state.meta_buffer.data.action[0]) == 2
+    np.testing.assert_array_equal(state.skill_buffers.data.action[2, 0], [0.5])
 
 
 @functools.cache

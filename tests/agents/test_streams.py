@@ -6,7 +6,7 @@ import jax
 import numpy as np
 import pytest
 
-from hiddpg.agents.hi_ddpg import STREAMS, step_keys
+from hiddpg.agents.hi_ddpg_state import STREAMS, step_keys
 from hiddpg.agents.streams import split_named
 
 

@@ -9,9 +9,9 @@ One :class:`~hiddpg.agents.block.DDPGBlock` acts on the environment reward. Per 
 3. once learning started, one critic update, one actor update and one soft target update on a
    uniformly sampled minibatch (Alg. 1's low-level lines 9-12 without the hierarchy).
 
-Episodes have the fixed length ``env.max_steps(params)`` inside ``lax.scan``; after the episode
-ended the environment state is frozen and nothing is inserted, learned or counted. Learning
-rates are multiplied by ``lr_decay`` every ``lr_decay_every`` episodes.
+Episodes run in the shared harness (:mod:`hiddpg.agents.episode`): the fixed length
+``env.max_steps(params)`` inside ``lax.scan``, nothing inserted, learned or counted after the
+episode's end, learning rates multiplied by ``lr_decay`` every ``lr_decay_every`` episodes.
 
 Example::
 
@@ -32,7 +32,9 @@ from flax import struct
 from hiddpg.agents import buffer as replay
 from hiddpg.agents import noise
 from hiddpg.agents.block import BlockState, DDPGBlock, value_terminal
+from hiddpg.agents.episode import EpisodeMetrics, decay_factor, run_episode
 from hiddpg.agents.gate import gated
+from hiddpg.agents.streams import split_named
 from hiddpg.agents.transition import Transition, example
 from hiddpg.configs import DDPGConfig
 from hiddpg.envs.base import Environment, affine_unit
@@ -56,24 +58,8 @@ class DDPGState:
     episodes: jax.Array
 
 
-@struct.dataclass
-class _Carry:
-    """Per-step scan carry of a training episode."""
-
-    agent: DDPGState
-    obs: jax.Array
-    env_state: Any
-    noise: noise.NoiseState
-    alive: jax.Array
-    ret: jax.Array
-    length: jax.Array
-    critic_loss: jax.Array
-    actor_loss: jax.Array
-    updates: jax.Array
-
-
-def _select(pred: jax.Array, new: Any, old: Any) -> Any:
-    return jax.tree_util.tree_map(lambda n, o: jnp.where(pred, n, o), new, old)
+#: one training step's random streams
+STREAMS = ("random", "noise", "env", "sample")
 
 
 @dataclass(frozen=True)
@@ -92,18 +78,16 @@ class DDPGAgent:
             invert_gradients=c.invert_gradients, action_l2=c.action_l2,
         ))
 
-    # -- helpers ------------------------------------------------------------------------------
+    @property
+    def learning_starts(self) -> int:
+        return self.config.learning_starts
+
     def to_env_action(self, unit: jax.Array) -> jax.Array:
         """Map the unit box ``[-1, 1]`` affinely onto ``[env.action_low, env.action_high]``."""
         low, high = float(self.env.action_low), float(self.env.action_high)
         if (low, high) == (-1.0, 1.0):
             return unit
         return affine_unit(unit, low, high)
-
-    def _learning_rates(self, episodes: jax.Array) -> tuple[jax.Array, jax.Array]:
-        c = self.config
-        factor = jnp.float32(c.lr_decay) ** (episodes // c.lr_decay_every).astype(jnp.float32)
-        return c.actor_lr * factor, c.critic_lr * factor
 
     # -- the Agent protocol -------------------------------------------------------------------
     def init(self, key: jax.Array, env_params: Any) -> DDPGState:
@@ -121,75 +105,8 @@ class DDPGAgent:
         self, key: jax.Array, state: DDPGState, env_params: Any
     ) -> tuple[DDPGState, dict[str, jax.Array]]:
         """One episode of exploration, replay insertion and learning (see module docstring)."""
-        c, block = self.config, self.block
-        k_reset, k_steps = jax.random.split(key)
-        obs, env_state = self.env.reset(k_reset, env_params)
-        actor_lr, critic_lr = self._learning_rates(state.episodes)
-        state = state.replace(block=block.set_learning_rates(state.block, actor_lr, critic_lr))
-        f0 = jnp.zeros((), jnp.float32)
-        carry = _Carry(
-            agent=state, obs=jnp.asarray(obs, jnp.float32), env_state=env_state,
-            noise=noise.init(c.noise, self.env.action_dim), alive=jnp.ones((), bool),
-            ret=f0, length=jnp.zeros((), jnp.int32), critic_loss=f0, actor_loss=f0,
-            updates=jnp.zeros((), jnp.int32),
-        )
-
-        def step(carry: _Carry, key: jax.Array) -> tuple[_Carry, None]:
-            k_random, k_noise, k_env, k_sample = jax.random.split(key, 4)
-            agent = carry.agent
-            random_action = jax.random.uniform(
-                k_random, (self.env.action_dim,), jnp.float32, -1.0, 1.0)
-            noise_state, eps = noise.sample(c.noise, carry.noise, k_noise, agent.episodes)
-            explore = jnp.clip(block.act(agent.block, carry.obs) + eps, -1.0, 1.0)
-            learning = agent.env_steps >= c.learning_starts
-            unit = jnp.where(learning, explore, random_action)
-            res = self.env.step(k_env, carry.env_state, self.to_env_action(unit), env_params)
-            next_obs = jnp.asarray(res.obs, jnp.float32)
-            transition = Transition(
-                obs=carry.obs, context=jnp.zeros((0,)), action=unit,
-                reward=jnp.asarray(res.reward, jnp.float32), next_obs=next_obs,
-                terminated=value_terminal(res, c.end_is_terminal))
-            alive = carry.alive
-            buf = replay.add(agent.buffer, transition, alive)
-            do_update = alive & learning
-
-            def learn(bs: BlockState) -> tuple[BlockState, jax.Array, jax.Array]:
-                batch = replay.sample(buf, k_sample, c.batch_size)
-                bs, m = block.update(bs, batch)
-                return bs, m["critic_loss"], m["actor_loss"]
-
-            def skip(bs: BlockState) -> tuple[BlockState, jax.Array, jax.Array]:
-                return bs, f0, f0
-
-            block_state, closs, aloss = gated(do_update, learn, skip, agent.block)
-            agent = agent.replace(block=block_state, buffer=buf,
-                                  env_steps=agent.env_steps + alive.astype(jnp.int32))
-            ended = jnp.asarray(res.terminated, bool) | jnp.asarray(res.truncated, bool)
-            carry = _Carry(
-                agent=agent,
-                obs=jnp.where(alive, next_obs, carry.obs),
-                env_state=_select(alive, res.state, carry.env_state),
-                noise=noise_state,
-                alive=alive & ~ended,
-                ret=carry.ret + jnp.where(alive, transition.reward, 0.0),
-                length=carry.length + alive.astype(jnp.int32),
-                critic_loss=carry.critic_loss + closs,
-                actor_loss=carry.actor_loss + aloss,
-                updates=carry.updates + do_update.astype(jnp.int32),
-            )
-            return carry, None
-
-        horizon = self.env.max_steps(env_params)
-        carry, _ = jax.lax.scan(step, carry, jax.random.split(k_steps, horizon))
-        n = jnp.maximum(carry.updates, 1).astype(jnp.float32)
-        state = carry.agent.replace(episodes=carry.agent.episodes + 1)
-        metrics = {
-            "return": carry.ret, "env_return": carry.ret, "length": carry.length,
-            "switches": jnp.zeros((), jnp.int32),
-            "critic_loss": carry.critic_loss / n, "actor_loss": carry.actor_loss / n,
-            "env_steps": state.env_steps,
-        }
-        return state, metrics
+        state, metrics, _ = run_episode(self, key, state, env_params, train=True)
+        return state, metrics.as_dict()
 
     def evaluate(
         self, key: jax.Array, state: DDPGState, env_params: Any
@@ -197,31 +114,75 @@ class DDPGAgent:
         """One noise-free episode without learning: ``(metrics, trajectory)``; the trajectory has
         ``obs`` (before each action), ``action`` (in the env's box), ``reward`` (0 after the
         end) and ``alive`` (1.0 while the episode runs), each with leading axis the horizon."""
-        k_reset, k_steps = jax.random.split(key)
-        obs, env_state = self.env.reset(k_reset, env_params)
+        _, metrics, traj = run_episode(self, key, state, env_params, train=False)
+        return metrics.as_dict(), traj
 
-        def step(carry: tuple, key: jax.Array) -> tuple[tuple, dict]:
-            obs, env_state, alive = carry
-            action = self.to_env_action(self.block.act(state.block, obs))
-            res = self.env.step(key, env_state, action, env_params)
-            reward = jnp.where(alive, jnp.asarray(res.reward, jnp.float32), 0.0)
-            out = {"obs": obs, "action": action, "reward": reward,
-                   "alive": alive.astype(jnp.float32)}
-            ended = jnp.asarray(res.terminated, bool) | jnp.asarray(res.truncated, bool)
-            next_obs = jnp.where(alive, jnp.asarray(res.obs, jnp.float32), obs)
-            env_state = _select(alive, res.state, env_state)
-            return (next_obs, env_state, alive & ~ended), out
+    # -- the episode harness's hooks (hiddpg.agents.episode) ---------------------------------
+    def step_keys(self, key: jax.Array, train: bool) -> dict[str, jax.Array]:
+        return split_named(key, STREAMS) if train else {"env": key}
 
-        init = (jnp.asarray(obs, jnp.float32), env_state, jnp.ones((), bool))
-        horizon = self.env.max_steps(env_params)
-        _, traj = jax.lax.scan(step, init, jax.random.split(k_steps, horizon))
-        ret = traj["reward"].sum()
-        metrics = {
-            "return": ret, "env_return": ret,
-            "length": traj["alive"].sum().astype(jnp.int32),
-            "switches": jnp.zeros((), jnp.int32),
-        }
-        return metrics, traj
+    def decay(self, state: DDPGState) -> DDPGState:
+        c = self.config
+        factor = decay_factor(c.lr_decay, c.lr_decay_every, state.episodes)
+        return state.replace(block=self.block.set_learning_rates(
+            state.block, c.actor_lr * factor, c.critic_lr * factor))
+
+    def begin(self, state: DDPGState, obs: jax.Array, horizon: int, train: bool):
+        f0 = jnp.zeros((), jnp.float32)
+        sums = {"ret": f0, "length": jnp.zeros((), jnp.int32), "critic_loss": f0,
+                "actor_loss": f0, "updates": jnp.zeros((), jnp.int32)}
+        return noise.init(self.config.noise, self.env.action_dim), sums
+
+    def act(self, state: DDPGState, inner: Any, obs: jax.Array, alive: jax.Array, keys: dict,
+            random_phase: jax.Array, env_params: Any, horizon: int, train: bool):
+        """``clip(μ(s) + OU, -1, 1)``, uniform in the random phase; ``μ(s)`` in evaluation."""
+        unit = self.block.act(state.block, obs)
+        if train:
+            uniform = jax.random.uniform(keys["random"], (self.env.action_dim,), jnp.float32,
+                                         -1.0, 1.0)
+            inner, eps = noise.sample(self.config.noise, inner, keys["noise"], state.episodes)
+            unit = jnp.where(random_phase, uniform, jnp.clip(unit + eps, -1.0, 1.0))
+        return inner, self.to_env_action(unit), unit
+
+    def observe(self, state: DDPGState, inner: Any, obs: jax.Array, unit: jax.Array, res: Any,
+                alive: jax.Array, keys: dict, random_phase: jax.Array, horizon: int,
+                train: bool):
+        """Store ``(s, a, r, s', terminated)`` and learn on a minibatch (training)."""
+        reward = jnp.where(alive, jnp.asarray(res.reward, jnp.float32), 0.0)
+        adds = {"ret": reward, "length": alive.astype(jnp.int32)}
+        out = {"obs": obs, "action": self.to_env_action(unit), "reward": reward,
+               "alive": alive.astype(jnp.float32)}
+        if not train:
+            return state, inner, adds, out
+        c, f0 = self.config, jnp.zeros((), jnp.float32)
+        transition = Transition(
+            obs=obs, context=jnp.zeros((0,)), action=unit,
+            reward=jnp.asarray(res.reward, jnp.float32),
+            next_obs=jnp.asarray(res.obs, jnp.float32),
+            terminated=value_terminal(res, c.end_is_terminal))
+        buf = replay.add(state.buffer, transition, alive)
+        do_update = alive & ~random_phase
+
+        def learn(bs: BlockState) -> tuple[BlockState, jax.Array, jax.Array]:
+            bs, m = self.block.update(bs, replay.sample(buf, keys["sample"], c.batch_size))
+            return bs, m["critic_loss"], m["actor_loss"]
+
+        block_state, closs, aloss = gated(do_update, learn, lambda bs: (bs, f0, f0), state.block)
+        state = state.replace(block=block_state, buffer=buf,
+                              env_steps=state.env_steps + alive.astype(jnp.int32))
+        adds.update(critic_loss=closs, actor_loss=aloss, updates=do_update.astype(jnp.int32))
+        return state, inner, adds, out
+
+    def finish(self, state: DDPGState, inner: Any, sums: dict, traj: dict, train: bool):
+        zero = jnp.zeros((), jnp.int32)
+        if not train:  # the evaluation's return sums the trajectory's rewards at once
+            ret = traj["reward"].sum()
+            return state, EpisodeMetrics(ret, ret, sums["length"], zero, {})
+        n = jnp.maximum(sums["updates"], 1).astype(jnp.float32)
+        state = state.replace(episodes=state.episodes + 1)
+        extra = {"critic_loss": sums["critic_loss"] / n, "actor_loss": sums["actor_loss"] / n,
+                 "env_steps": state.env_steps}
+        return state, EpisodeMetrics(sums["ret"], sums["ret"], sums["length"], zero, extra)
 
 
 def make_ddpg(config: DDPGConfig, env: Environment) -> DDPGAgent:

@@ -40,9 +40,11 @@ from flax import struct
 from hiddpg.agents import buffer as replay
 from hiddpg.agents import noise
 from hiddpg.agents.block import BlockState, DDPGBlock, value_terminal
+from hiddpg.agents.episode import EpisodeMetrics, run_episode, select
 from hiddpg.agents.gate import gated
 from hiddpg.agents.networks import FINAL_INIT_SCALE, MLP
 from hiddpg.agents.skills import SkillPatterns, skill_patterns
+from hiddpg.agents.streams import split_named
 from hiddpg.agents.transition import Transition, example
 from hiddpg.configs import HDDPGConfig
 from hiddpg.envs.base import Environment
@@ -70,10 +72,6 @@ def count_switches(skill: jax.Array, alive: jax.Array) -> jax.Array:
     alive = jnp.asarray(alive, bool)
     changed = (skill[1:] != skill[:-1]) & alive[1:] & alive[:-1]
     return jnp.sum(changed).astype(jnp.int32)
-
-
-def _select(pred: jax.Array, new: Any, old: Any) -> Any:
-    return jax.tree_util.tree_map(lambda n, o: jnp.where(pred, n, o), new, old)
 
 
 @struct.dataclass
@@ -106,19 +104,12 @@ class HDDPGState:
     episodes: jax.Array
 
 
-@struct.dataclass
-class _Carry:
-    agent: HDDPGState
-    obs: jax.Array
-    env_state: Any
-    noise: noise.NoiseState
-    alive: jax.Array
-    sums: dict
-
-
 #: per-episode sums: the return, then what :meth:`HDDPG._learn` adds up, in its order.
 _SUMS = ("ret", "meta_loss", "skill_critic_loss", "skill_actor_loss", "meta_updates",
          "skill_updates")
+
+#: one step's random streams (a split in six; the sixth is not drawn from)
+STREAMS = ("skill", "noise", "random", "env", "learn", "unused")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -191,7 +182,7 @@ class HDDPG:
         batches = jax.vmap(lambda b, k: replay.sample(b, k, batch_size))(buffers, keys)
         new, metrics = jax.vmap(self.block.update)(skills, batches)
         gate = buffers.size >= batch_size
-        return jax.vmap(_select)(gate, new, skills), gate, metrics
+        return jax.vmap(select)(gate, new, skills), gate, metrics
 
     def _skill_learning_rates(self, skills: BlockState, episodes: jax.Array) -> BlockState:
         s = self.config.skill
@@ -219,41 +210,82 @@ class HDDPG:
             env_steps=zero, episodes=zero,
         )
 
-    def _step(self, carry: _Carry, key: jax.Array, env_params: Any, epsilon: jax.Array,
-              train: bool) -> tuple[_Carry, dict]:
-        c, agent, obs = self.config, carry.agent, carry.obs
-        keys = jax.random.split(key, 6)
-        # 1. the meta-critic picks a skill (ε-greedy; greedy in evaluation)
-        random_phase = (agent.env_steps < c.skill.learning_starts) if train else False
+    @property
+    def learning_starts(self) -> int:
+        return self.config.skill.learning_starts
+
+    def train_episode(self, key: jax.Array, state: HDDPGState, env_params: Any):
+        """One episode of ε-greedy skill choice, OU-perturbed skills, replay and learning."""
+        state, metrics, _ = run_episode(self, key, state, env_params, train=True)
+        return state, metrics.as_dict()
+
+    def evaluate(self, key: jax.Array, state: HDDPGState, env_params: Any):
+        """A greedy, noise-free episode without learning: ``(metrics, trajectory)`` with ``obs``
+        (before each action), ``action`` (the env's normalised action), ``reward``, ``alive``
+        (1.0 while the episode runs) and ``skill`` (int32), each over the horizon."""
+        _, metrics, traj = run_episode(self, key, state, env_params, train=False)
+        return metrics.as_dict(), traj
+
+    # -- the episode harness's hooks (hiddpg.agents.episode) ---------------------------------
+    def step_keys(self, key: jax.Array, train: bool) -> dict[str, jax.Array]:
+        return split_named(key, STREAMS)
+
+    def decay(self, state: HDDPGState) -> HDDPGState:
+        return state.replace(skills=self._skill_learning_rates(state.skills, state.episodes))
+
+    def begin(self, state: HDDPGState, obs: jax.Array, horizon: int, train: bool):
+        """The OU process and this episode's ε (0 in evaluation)."""
+        epsilon = self.epsilon(state.episodes) if train else jnp.zeros((), jnp.float32)
+        inner = (noise.init(self.config.skill.noise, self.patterns.actor_dim), epsilon)
+        return inner, {n: jnp.zeros((), jnp.float32) for n in _SUMS}
+
+    def act(self, state: HDDPGState, inner: Any, obs: jax.Array, alive: jax.Array,
+            keys: dict, random_phase: jax.Array, env_params: Any, horizon: int, train: bool):
+        """The meta-critic picks a skill (ε-greedy; greedy in evaluation); the skill's unit
+        output (+ OU noise) goes through its movement pattern."""
+        c, (noise_state, epsilon) = self.config, inner
+        random_phase = random_phase if train else False
         eps = jnp.where(random_phase, 1.0, epsilon)
-        skill = epsilon_greedy(keys[0], self.meta_q(agent.meta.params, obs), eps)
-        # 2. the chosen skill's unit output (+ OU noise), through its movement pattern
-        unit = self.skill_units(agent.skills, obs)[skill]
-        noise_state = carry.noise
+        skill = epsilon_greedy(keys["skill"], self.meta_q(state.meta.params, obs), eps)
+        unit = self.skill_units(state.skills, obs)[skill]
         if train:
-            noise_state, n = noise.sample(c.skill.noise, carry.noise, keys[1], agent.episodes)
-            uniform = jax.random.uniform(keys[2], unit.shape, jnp.float32, -1.0, 1.0)
+            noise_state, n = noise.sample(c.skill.noise, noise_state, keys["noise"],
+                                          state.episodes)
+            uniform = jax.random.uniform(keys["random"], unit.shape, jnp.float32, -1.0, 1.0)
             unit = jnp.where(random_phase, uniform, jnp.clip(unit + n, -1.0, 1.0))
         action = self.patterns.env_action(skill, unit, obs, env_params)
-        res = self.env.step(keys[3], carry.env_state, action, env_params)
-        alive = carry.alive
-        next_obs = jnp.asarray(res.obs, jnp.float32)
+        return (noise_state, epsilon), action, (skill, unit, action)
+
+    def observe(self, state: HDDPGState, inner: Any, obs: jax.Array, info: Any, res: Any,
+                alive: jax.Array, keys: dict, random_phase: jax.Array, horizon: int,
+                train: bool):
+        """Store the step and learn (training)."""
+        skill, unit, action = info
         reward = jnp.where(alive, jnp.asarray(res.reward, jnp.float32), 0.0)
-        terminated = jnp.asarray(res.terminated, bool)
-        sums = dict(carry.sums, ret=carry.sums["ret"] + reward)
-        if train:  # 3. store and learn
-            agent = self._store(agent, obs, skill, unit, reward, next_obs,
+        adds = {"ret": reward}
+        if train:
+            state = self._store(state, obs, skill, unit, reward,
+                                jnp.asarray(res.obs, jnp.float32),
                                 value_terminal(res, self.config.skill.end_is_terminal), alive)
-            agent, sums = self._learn(agent, sums, keys[4], alive & ~random_phase)
-        ended = terminated | jnp.asarray(res.truncated, bool)
-        new = _Carry(
-            agent=agent, obs=jnp.where(alive, next_obs, obs),
-            env_state=_select(alive, res.state, carry.env_state), noise=noise_state,
-            alive=alive & ~ended, sums=sums,
-        )
+            state, learned = self._learn(state, keys["learn"], alive & ~random_phase)
+            adds.update(learned)
         out = {"obs": obs, "action": action, "reward": reward,
                "alive": alive.astype(jnp.float32), "skill": skill}
-        return new, out
+        return state, inner, adds, out
+
+    def finish(self, state: HDDPGState, inner: Any, sums: dict, traj: dict, train: bool):
+        s, (_, epsilon) = sums, inner
+        length = traj["alive"].sum().astype(jnp.int32)
+        switches = count_switches(traj["skill"], traj["alive"])
+        if not train:
+            return state, EpisodeMetrics(s["ret"], s["ret"], length, switches, {})
+        n_meta, n_skill = jnp.maximum(s["meta_updates"], 1), jnp.maximum(s["skill_updates"], 1)
+        extra = {"meta_loss": s["meta_loss"] / n_meta,
+                 "skill_critic_loss": s["skill_critic_loss"] / n_skill,
+                 "skill_actor_loss": s["skill_actor_loss"] / n_skill,
+                 "epsilon": epsilon, "env_steps": state.env_steps}
+        state = state.replace(episodes=state.episodes + 1)
+        return state, EpisodeMetrics(s["ret"], s["ret"], length, switches, extra)
 
     def _store(self, agent, obs, skill, unit, reward, next_obs, terminated, alive):
         """Meta replay gets every step; skill ``k``'s replay only the steps it acted in."""
@@ -267,9 +299,9 @@ class HDDPG:
         return agent.replace(skill_buffers=skill_buffers, meta_buffer=meta_buffer,
                              env_steps=agent.env_steps + alive.astype(jnp.int32))
 
-    def _learn(self, agent: HDDPGState, sums: dict, key: jax.Array, do_learn: jax.Array):
+    def _learn(self, agent: HDDPGState, key: jax.Array, do_learn: jax.Array):
         """Meta-critic and skill updates, skipped (:func:`~hiddpg.agents.gate.gated`) unless
-        ``do_learn``."""
+        ``do_learn``: the agent and the sums to add (losses, update counts)."""
         k_meta, k_skills = jax.random.split(key)
         f0 = jnp.zeros((), jnp.float32)
 
@@ -286,46 +318,7 @@ class HDDPG:
             return a, (f0, f0, f0, f0, f0)
 
         agent, losses = gated(do_learn, learn, skip, agent)
-        return agent, {**sums, **{n: sums[n] + v for n, v in zip(_SUMS[1:], losses, strict=True)}}
-
-    def _episode(self, key: jax.Array, state: HDDPGState, env_params: Any, train: bool):
-        k_reset, k_steps = jax.random.split(key)
-        obs, env_state = self.env.reset(k_reset, env_params)
-        if train:
-            state = state.replace(skills=self._skill_learning_rates(state.skills,
-                                                                    state.episodes))
-        epsilon = self.epsilon(state.episodes) if train else jnp.zeros((), jnp.float32)
-        carry = _Carry(
-            agent=state, obs=jnp.asarray(obs, jnp.float32), env_state=env_state,
-            noise=noise.init(self.config.skill.noise, self.patterns.actor_dim),
-            alive=jnp.ones((), bool), sums={n: jnp.zeros((), jnp.float32) for n in _SUMS},
-        )
-        step = lambda c, k: self._step(c, k, env_params, epsilon, train)
-        horizon = self.env.max_steps(env_params)
-        carry, traj = jax.lax.scan(step, carry, jax.random.split(k_steps, horizon))
-        s = carry.sums
-        metrics = {"return": s["ret"], "env_return": s["ret"],
-                   "length": traj["alive"].sum().astype(jnp.int32),
-                   "switches": count_switches(traj["skill"], traj["alive"])}
-        if train:
-            n_meta, n_skill = jnp.maximum(s["meta_updates"], 1), jnp.maximum(s["skill_updates"], 1)
-            metrics.update(meta_loss=s["meta_loss"] / n_meta,
-                           skill_critic_loss=s["skill_critic_loss"] / n_skill,
-                           skill_actor_loss=s["skill_actor_loss"] / n_skill,
-                           epsilon=epsilon, env_steps=carry.agent.env_steps)
-        return carry.agent, metrics, traj
-
-    def train_episode(self, key: jax.Array, state: HDDPGState, env_params: Any):
-        """One episode of ε-greedy skill choice, OU-perturbed skills, replay and learning."""
-        agent, metrics, _ = self._episode(key, state, env_params, train=True)
-        return agent.replace(episodes=agent.episodes + 1), metrics
-
-    def evaluate(self, key: jax.Array, state: HDDPGState, env_params: Any):
-        """A greedy, noise-free episode without learning: ``(metrics, trajectory)`` with ``obs``
-        (before each action), ``action`` (the env's normalised action), ``reward``, ``alive``
-        (1.0 while the episode runs) and ``skill`` (int32), each over the horizon."""
-        _, metrics, traj = self._episode(key, state, env_params, train=False)
-        return metrics, traj
+        return agent, dict(zip(_SUMS[1:], losses, strict=True))
 
 
 def make_hddpg(config: HDDPGConfig, env: Environment) -> HDDPG:

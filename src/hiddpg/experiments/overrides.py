@@ -37,10 +37,10 @@ class _FirstAction:
     """The high level's first choice of an episode replaced by ``first`` (a unit ``(g, T)``);
     the later ones are its own."""
 
-    def choose(self, carry: Any, hobs: jax.Array, steps_left: jax.Array, keys: dict,
-               noise_eps: jax.Array | None, random: jax.Array) -> jax.Array:
-        action = super().choose(carry, hobs, steps_left, keys, noise_eps, random)
-        return jnp.where(carry.n_goals == 0, self.first, action)
+    def choose(self, state: Any, seg: Any, hobs: jax.Array, steps_left: jax.Array,
+               keys: dict, noise_eps: jax.Array | None, random: jax.Array) -> jax.Array:
+        action = super().choose(state, seg, hobs, steps_left, keys, noise_eps, random)
+        return jnp.where(seg.n_goals == 0, self.first, action)
 
 
 @functools.cache

@@ -1,0 +1,97 @@
+"""What HI-DDPG carries: between episodes (:class:`HIDDPGState`), within one
+(:class:`Segment`: the current segment and both noise processes), the sums an episode reports,
+and the random streams of one step."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from hiddpg.agents import noise
+from hiddpg.agents.episode import EpisodeMetrics
+from hiddpg.agents.level import LevelState
+from hiddpg.agents.streams import split_named
+from hiddpg.configs import NoiseConfig
+
+_LOSSES = ("critic_loss", "actor_loss", "model_loss")
+
+#: the random streams of one step, one per purpose
+STREAMS = ("high_noise", "high_random", "low_noise", "low_random", "env", "low_update",
+           "high_update")
+
+
+@struct.dataclass
+class HIDDPGState:
+    """Both levels (networks, models, buffers) and the run's counters."""
+
+    high: LevelState
+    low: LevelState
+    env_steps: jax.Array
+    episodes: jax.Array
+
+
+@struct.dataclass
+class Segment:
+    """The hierarchy's state within an episode: the current segment and both noises."""
+
+    high_action: jax.Array  # unit box: goal entries then T
+    goal: jax.Array  # full goal vector (obs shape)
+    remaining: jax.Array  # low-level steps left in the segment
+    seg_obs: jax.Array  # s_{t_i}, the high level's input
+    seg_reward: jax.Array  # Σ r_env so far in the segment
+    n_goals: jax.Array
+    t: jax.Array  # steps taken in the episode
+    high_noise: noise.NoiseState
+    low_noise: noise.NoiseState
+
+
+def new_segment(obs: jax.Array, seg_obs: jax.Array, goal_dim: int, action_dim: int,
+                high_noise: NoiseConfig, low_noise: NoiseConfig) -> Segment:
+    """An episode's start: no goal yet (a switch at the first step), fresh OU processes."""
+    return Segment(
+        high_action=jnp.zeros((goal_dim + 1,)), goal=jnp.zeros_like(obs),
+        remaining=jnp.zeros((), jnp.int32), seg_obs=seg_obs, seg_reward=jnp.zeros(()),
+        n_goals=jnp.zeros((), jnp.int32), t=jnp.zeros((), jnp.int32),
+        high_noise=noise.init(high_noise, goal_dim + 1),
+        low_noise=noise.init(low_noise, action_dim))
+
+
+def zero_sums() -> dict[str, jax.Array]:
+    """The per-step sums of an episode: both levels' losses and updates, the returns."""
+    names = [f"{lv}_{m}" for lv in ("high", "low") for m in _LOSSES]
+    names += ["high_updates", "low_updates", "env_return", "ret", "length"]
+    return {n: jnp.zeros(()) for n in names}
+
+
+def update_sums(high_m: dict, low_m: dict, learn_high: jax.Array,
+                learn_low: jax.Array) -> dict[str, jax.Array]:
+    """One step's additions to the loss and update sums."""
+    adds = {f"low_{m}": low_m[m] for m in _LOSSES}
+    adds.update({f"high_{m}": high_m[m] for m in _LOSSES})
+    adds.update(low_updates=learn_low, high_updates=learn_high)
+    return adds
+
+
+def episode_metrics(state: HIDDPGState, seg: Segment, sums: dict,
+                    train: bool) -> EpisodeMetrics:
+    """The episode's returns, length and switches (goals after the first); in training also
+    each level's mean losses per update."""
+    s = sums
+    extra = {"env_steps": state.env_steps.astype(jnp.float32)}
+    if train:
+        for lv in ("high", "low"):
+            n = jnp.maximum(s[f"{lv}_updates"], 1.0)
+            extra.update({f"{lv}_{m}": s[f"{lv}_{m}"] / n for m in _LOSSES})
+    switches = jnp.maximum(seg.n_goals - 1, 0).astype(jnp.float32)
+    return EpisodeMetrics(s["ret"], s["env_return"], s["length"], switches, extra)
+
+
+def step_keys(key: jax.Array) -> dict[str, jax.Array]:
+    """One step's random streams by name (:data:`STREAMS`), and the choosers' and the high
+    level's hindsight draws derived from them."""
+    keys = split_named(key, STREAMS)
+    keys["choice_explore"] = jax.random.fold_in(keys["high_random"], 3)
+    keys["choice_settle"] = jax.random.fold_in(keys["high_random"], 7)
+    keys["high_hindsight"] = jax.random.fold_in(keys["high_update"], 1)
+    return keys
