@@ -81,8 +81,7 @@ def batch_seeds() -> bool:
     ``$HIDDPG_SEEDS_ON_DEVICE`` (``vmap`` or ``map``) decides if set; otherwise ``map`` on CPU
     and ``vmap`` on accelerators. On CPU a seed's update already uses the core well, and the
     batched matrix multiplies of a ``vmap`` are slower than the same multiplies one seed at a
-    time (measured: DDPG 16 seeds on 2 CPU devices 900 steps/s vmapped, 1246 mapped;
-    ``docs/performance.md``); one after another, each seed also computes bit for bit what it
+    time (``docs/performance.md``); one after another, each seed also computes bit for bit what it
     computes alone. An accelerator needs the batch to fill it.
     """
     import jax

@@ -45,91 +45,84 @@ class NoiseConfig:
 
 
 @dataclass(frozen=True)
-class DDPGConfig:
-    """Flat DDPG (the paper's "plain DDPG"), built on the shared DDPG block (spec §1)."""
+class ActorCriticConfig:
+    """What every DDPG actor-critic has (spec §1): networks, discount, targets, replay, noise."""
 
     hidden: tuple[int, ...] = (300, 300)
-    """Hidden layer sizes of actor and critic; arm tasks add a third 300 layer [paper]."""
-    actor_lr: float = 1e-4
-    """Adam learning rate of the actor [decision: DDPG paper]."""
-    critic_lr: float = 1e-3
-    """Adam learning rate of the critic [decision: DDPG paper]."""
+    """Hidden sizes of actor and critic (and a level's model); arm tasks add a third 300 layer
+    [paper]."""
     gamma: float = 0.99
-    """Discount [decision]."""
+    """Discount."""
     tau: float = 0.001
     """Polyak rate of the target networks [decision: DDPG paper]."""
     batch_size: int = 64
     """Minibatch size [decision: DDPG paper]."""
     buffer_size: int = 100_000
-    """Replay capacity [decision]."""
-    learning_starts: int = 1000
-    """Environment steps of uniformly random actions before learning starts [decision]."""
+    """Replay capacity."""
     noise: NoiseConfig = field(default_factory=NoiseConfig)
-    invert_gradients: bool = False
-    """Damp the actor's action gradient near the bounds of its box (Hausknecht & Stone 2016)
-    [decision; False = the paper's plain DPG]."""
-    action_l2: float = 0.0
-    """Penalty weight on the squared unit action in the actor's objective (Andrychowicz et
-    al. 2017) [decision; 0 = the paper's plain DPG]."""
-    lr_decay: float = 1.0
-    """Learning rates are multiplied by this every ``lr_decay_every`` episodes (1 = off)."""
-    lr_decay_every: int = 50
-    end_is_terminal: bool = False
-    """Treat the end of every episode as terminal in the value targets: no bootstrap at the time
-    limit either (the paper's arm rule, §III-B: "the target action-state value for the final
-    step in each episode was assigned with the reward of the final step"). False: time-limit
-    ends bootstrap (spec §3 decision). The presets set it on tasks that terminate (obstacles):
-    there, bootstrapping an infinite-horizon value at the time limit makes a collision look
-    cheaper than going on (docs/algorithms.md)."""
-
-    def __post_init__(self) -> None:
-        hidden(self)
-        positive(self, "actor_lr", "critic_lr", "batch_size", "buffer_size", "lr_decay_every")
-        unit(self, "gamma", "tau", "lr_decay")
-        if self.learning_starts < 0:
-            raise ValueError(f"DDPGConfig.learning_starts={self.learning_starts} must be >= 0")
-        buffer(self)
-
-
-@dataclass(frozen=True)
-class LevelConfig:
-    """One level (high or low) of HI-DDPG: a DDPG block plus its dynamics model."""
-
-    hidden: tuple[int, ...] = (300, 300)
-    """Hidden sizes of actor, critic and model [paper]."""
-    lr: float = 2e-4
-    """Adam learning rate shared by the level's actor, critic and model [paper]."""
-    gamma: float = 0.95
-    """Discount: 0.99 high level, 0.95 low level [paper]."""
-    tau: float = 0.001
-    """Polyak rate of the target networks [decision]."""
-    batch_size: int = 64
-    """Minibatch size [decision]."""
-    buffer_size: int = 10_000
-    """Replay capacity: puck D_H = 1e5, D_L = 1e4; arm 1e6 / 1e5 [paper]."""
-    noise: NoiseConfig = field(default_factory=NoiseConfig)
-    """OU noise on the level's normalised outputs [paper]."""
+    """Exploration noise on the actor's normalised outputs [paper]."""
     invert_gradients: bool = False
     """Damp the actor's action gradient near the bounds of its box so that ``tanh`` does not
     saturate (Hausknecht & Stone 2016) [decision; False = the paper's plain DPG]."""
     action_l2: float = 0.0
     """Penalty weight on the squared unit action in the actor's objective (Andrychowicz et
     al. 2017) [decision; 0 = the paper's plain DPG]."""
-    huber: HuberLoss | None = None
-    """The critic's loss: the squared TD error (None) [paper], or the Huber loss
-    (:class:`~hiddpg.configs.parts.HuberLoss`) [decision]."""
     end_is_terminal: bool = False
-    """No bootstrap at the end of any episode for this level's critic (as
-    :attr:`DDPGConfig.end_is_terminal`; the presets set it on the high level of the
-    terminating tasks)."""
-    env_terminal: bool = True
-    """An environment termination (a collision) ends the level's value: no bootstrap (spec §3).
-    False: bootstrap through it. The presets set False for the low level on terminating tasks:
-    its reward is intrinsic only, so a collision would end its costs without costing anything,
-    and it learned to drive into the obstacle whatever the goal (docs/algorithms.md)."""
+    """No bootstrap at the end of any episode, time limit included (the paper's arm rule,
+    §III-B) [decision per task; False: time-limit ends bootstrap, spec §3]."""
 
     def __post_init__(self) -> None:
         hidden(self)
-        positive(self, "lr", "batch_size", "buffer_size")
+        positive(self, "batch_size", "buffer_size")
         unit(self, "gamma", "tau")
         buffer(self)
+
+
+@dataclass(frozen=True)
+class DDPGConfig(ActorCriticConfig):
+    """Flat DDPG (the paper's "plain DDPG"), built on the shared DDPG block (spec §1)."""
+
+    gamma: float = 0.99
+    """Discount [decision]."""
+    buffer_size: int = 100_000
+    """Replay capacity [decision]."""
+    actor_lr: float = 1e-4
+    """Adam learning rate of the actor [decision: DDPG paper]."""
+    critic_lr: float = 1e-3
+    """Adam learning rate of the critic [decision: DDPG paper]."""
+    learning_starts: int = 1000
+    """Environment steps of uniformly random actions before learning starts [decision]."""
+    lr_decay: float = 1.0
+    """Learning rates are multiplied by this every ``lr_decay_every`` episodes (1 = off)."""
+    lr_decay_every: int = 50
+    """Episodes between two learning-rate decays."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        positive(self, "actor_lr", "critic_lr", "lr_decay_every")
+        unit(self, "lr_decay")
+        if self.learning_starts < 0:
+            raise ValueError(f"DDPGConfig.learning_starts={self.learning_starts} must be >= 0")
+
+
+@dataclass(frozen=True)
+class LevelConfig(ActorCriticConfig):
+    """One level (high or low) of HI-DDPG: a DDPG block plus its dynamics model."""
+
+    gamma: float = 0.95
+    """Discount: 0.99 high level, 0.95 low level [paper]."""
+    buffer_size: int = 10_000
+    """Replay capacity: puck D_H = 1e5, D_L = 1e4; arm 1e6 / 1e5 [paper]."""
+    lr: float = 2e-4
+    """Adam learning rate shared by the level's actor, critic and model [paper]."""
+    huber: HuberLoss | None = None
+    """The critic's loss: the squared TD error (None) [paper], or the Huber loss
+    (:class:`~hiddpg.configs.parts.HuberLoss`) [decision]."""
+    env_terminal: bool = True
+    """An environment termination (a collision) ends the level's value (spec §3); False
+    bootstraps through it [decision: the low level on the terminating tasks, whose reward is
+    intrinsic only]."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        positive(self, "lr")

@@ -55,17 +55,9 @@ class Budget:
     """``--set`` overrides of the HI-DDPG runs (``hi-ddpg``, ``hi-ddpg-wo-model``)."""
 
 
-#: (scale, task group: ``budget_group``) -> budget. ``quick`` is the quick preset's own
-#: budget (the smallest that learns PuckTrajectory1: 1500 episodes with 300 of low-level
-#: pre-training; arm 1500 with 200: at 600 HI-DDPG's high level was still exploring, -32.7 +-
-#: 2.8, at 1500 -11.5 +- 2.0)
-#: on 3 seeds, about 20 minutes for ``all`` on 2 cores. ``paper`` is the paper's budget, 15 runs
-#: per method of 3000 episodes, trained with the *quick* preset's networks and rates
-#: [decision]: with the paper preset's (300-300 networks, high-level rate 2e-5, no puck
-#: pre-training) HI-DDPG's evaluation return on PuckTrajectory2 stayed flat at about -53 from
-#: episode 400 to 1600 (15 seeds, 3058 s for 1600 episodes), where the quick preset reaches -24
-#: to -34 by 1500 in a tenth of the time; ArmObstacle with quick networks at this budget:
-#: -9.8 +- 1.7 in 637 s (docs/results.md). ``hiddpg train --preset paper`` keeps the paper's.
+#: (scale, task group: ``budget_group``) -> budget. ``quick``: the quick preset's own budget,
+#: 3 seeds. ``paper``: the paper's 15 runs per method, trained with the quick preset's networks
+#: and rates [decision; docs/results.md says why and what the paper preset gives].
 BUDGETS: dict[tuple[str, str], Budget] = {
     ("quick", "puck"): Budget("quick", seeds=3, episodes=1500, eval_every=50,
                               chunk_episodes=250),
@@ -79,15 +71,9 @@ BUDGETS: dict[tuple[str, str], Budget] = {
                              chunk_episodes=250, hi_ddpg_sets=ARM_HIGH_CRITIC),
 }
 """At paper scale HI-DDPG on the trajectory tasks gets the critic-chosen durations
-(``presets.CRITIC_DURATIONS``) and twice the paper's episodes [decision]: with them
-PuckTrajectory2's runs that hold both reference goals within 0.3 went from 2/15 (3000
-episodes) to 5/15 (4500) and 9/15 (6000) when evaluating every 10 episodes; the
-reproduction's own run (every 20, other random draws): 4/15, one switch in 14/15; with the
-low level's hindsight goals and rest weight added to the sets (session 9): 12/15.
-HI-DDPG (and HI-DDPG-wo-model) on ArmObstacle get ``presets.ARM_HIGH_CRITIC`` (session 10:
-6/15 -> 11/15 successes; 5/15 on seeds 15-29 and 8/15 on seeds 30-44, session 11; with the
-Huber δ going from 10 to 3 at episode 2160, session 12: 12/15, 13/15 and 13/15).
-A (scale, group) missing here falls back to the task's family (``budget_group``)."""
+(``presets.CRITIC_DURATIONS``) and twice the paper's episodes, on ArmObstacle
+``presets.ARM_HIGH_CRITIC`` [decision; docs/results.md]. A (scale, group) missing here falls back
+to the task's family (``budget_group``)."""
 
 
 GROUP_TASKS = {"trajectory": "PuckTrajectory1-3"}
