@@ -108,8 +108,8 @@ class HDDPGState:
 _SUMS = ("ret", "meta_loss", "skill_critic_loss", "skill_actor_loss", "meta_updates",
          "skill_updates")
 
-#: one step's random streams (a split in six; the sixth is not drawn from)
-STREAMS = ("skill", "noise", "random", "env", "learn", "unused")
+#: one step's random streams
+STREAMS = ("skill", "noise", "random", "env", "learn")
 
 
 @dataclasses.dataclass(frozen=True)

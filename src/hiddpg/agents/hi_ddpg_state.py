@@ -17,8 +17,8 @@ from hiddpg.configs import NoiseConfig
 _LOSSES = ("critic_loss", "actor_loss", "model_loss")
 
 #: the random streams of one step, one per purpose
-STREAMS = ("high_noise", "high_random", "low_noise", "low_random", "env", "low_update",
-           "high_update")
+STREAMS = ("high_noise", "high_random", "choice_explore", "choice_settle", "low_noise",
+           "low_random", "env", "low_update", "high_update", "high_hindsight")
 
 
 @struct.dataclass
@@ -88,10 +88,5 @@ def episode_metrics(state: HIDDPGState, seg: Segment, sums: dict,
 
 
 def step_keys(key: jax.Array) -> dict[str, jax.Array]:
-    """One step's random streams by name (:data:`STREAMS`), and the choosers' and the high
-    level's hindsight draws derived from them."""
-    keys = split_named(key, STREAMS)
-    keys["choice_explore"] = jax.random.fold_in(keys["high_random"], 3)
-    keys["choice_settle"] = jax.random.fold_in(keys["high_random"], 7)
-    keys["high_hindsight"] = jax.random.fold_in(keys["high_update"], 1)
-    return keys
+    """One step's random streams by name (:data:`STREAMS`)."""
+    return split_named(key, STREAMS)

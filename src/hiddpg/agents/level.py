@@ -26,6 +26,7 @@ from hiddpg.agents.block import BlockState, DDPGBlock
 from hiddpg.agents.gate import gated
 from hiddpg.agents.hindsight import Hindsight
 from hiddpg.agents.model_grad import DynamicsModel, ModelState, batched_model_gradient
+from hiddpg.agents.streams import split_named
 from hiddpg.agents.transition import Transition, example
 from hiddpg.configs import LevelConfig
 
@@ -129,7 +130,8 @@ class Level:
         ``Q'(s', μ'(s'))``; ``actor_inputs``, if given, rewrites the actor's batch of ``[s, c]``
         (both: :mod:`hiddpg.agents.durations`). ``episode`` (the agent's count) sets the Huber
         loss's ``δ`` where the config schedules it."""
-        tr = self.sample(state, key)
+        keys = split_named(key, ("sample", "actor_inputs"))
+        tr = self.sample(state, keys["sample"])
         block, c = self.block, self.config
         delta = None if c.huber is None else huber.delta_at(c.huber, episode)
         next_q = None if next_value is None else next_value(block, state.block, tr.next_obs)
@@ -138,7 +140,7 @@ class Level:
         extra = self.extra_dq_da(block_state, state.model) if self.model_weight > 0 else None
         inputs = tr.inputs
         if actor_inputs is not None:
-            inputs = actor_inputs(jax.random.fold_in(key, 1), inputs)
+            inputs = actor_inputs(keys["actor_inputs"], inputs)
         block_state, actor_m = block.actor_update(block_state, inputs, extra)
         block_state = block.soft_update(block_state)
         model_state, model_loss = state.model, jnp.zeros(())
