@@ -6,18 +6,9 @@ joint) HI-DDPG must (1) end with a return that a random policy cannot reach and 
 near the reference goal. Three seeds train in one run; RL outcomes vary by seed, so (2) must
 hold for at least two of them.
 
-Measured on seeds 0-5 (quick preset, seeds run one after another, as on CPU since the device
-engine; they are bitwise what each seed gives alone): final noise-free return -15.1, -21.4,
--25.5, -13.0, -22.9, -14.3 (the best of the random first episodes: about -39); nearest learned
-goal 0.14, 0.30, 0.20, 0.02, 0.16, 0.07 from the reference. A random high level comes within
-0.35 of the reference with one of its ~4 goals in ~8% of episodes. (Before, seeds ran as a
-``vmap`` whose batched matmuls round differently; the same thresholds on the goal *held
-longest* happened to pass then and fail now for seeds 0-2: 0.33, 0.71, 1.00.)
-
-Since session 6 the preset's high level chooses between its duration and holding the goal to
-the end (:class:`~hiddpg.configs.HoldChoice`, ``agent.choice=hold``): seeds 0-2 now return
--7.7, -4.1, -7.5 with 0 switches each (as the reference; before: 1 switch in every seed),
-nearest goal 0.21, 0.08, 0.24.
+The random first episodes return about -90 (median), a few of them -20 to -45 when a random goal
+held long happens to lie near the reference; trained, the seeds hold one goal near the
+reference goal and return about -4 to -8.
 """
 
 import jax
@@ -50,7 +41,7 @@ def test_return_beats_a_random_policy(trained):
     first, metrics, _ = trained
     # the first 10 episodes act uniformly at random (learning_starts = 300 steps)
     random_returns = np.asarray(first["return"][:, :10])
-    assert random_returns.max() < -35.0
+    assert np.median(random_returns) < -60.0  # what a random policy returns
     final = np.asarray(metrics["return"])
     assert np.all(final > random_returns.max() + 10.0), (final, random_returns.max())
     assert np.median(final) > random_returns.max() + 15.0, (final, random_returns.max())

@@ -19,7 +19,7 @@ import pytest
 
 from hiddpg.agents import buffer
 from hiddpg.agents.block import BlockState
-from hiddpg.agents.level import Level, LevelState
+from hiddpg.agents.level import Level, LevelState, update_keys
 from hiddpg.agents.model_grad import (
     DynamicsModel,
     ModelState,
@@ -278,7 +278,7 @@ def test_level_update_with_model_weight_zero_is_the_plain_ddpg_update(kind):
         buf, _ = jax.lax.scan(lambda b, t: (buffer.add(b, t), None), state.buffer, tr)
         state = state.replace(buffer=buf)
         # the plain DDPG step of the block on the minibatch Level.update draws
-        batch = buffer.sample(buf, key, level0.config.batch_size)
+        batch = buffer.sample(buf, update_keys(key)["sample"], level0.config.batch_size)
         plain = level0.block.update(state.block, batch)
         before = level0.model.loss(state.model.params, batch.obs, batch.action, batch.next_obs)
         return (state, level0.update(state, key, episode=episode), plain, before,

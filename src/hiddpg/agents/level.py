@@ -130,7 +130,7 @@ class Level:
         ``Q'(s', μ'(s'))``; ``actor_inputs``, if given, rewrites the actor's batch of ``[s, c]``
         (both: :mod:`hiddpg.agents.durations`). ``episode`` (the agent's count) sets the Huber
         loss's ``δ`` where the config schedules it."""
-        keys = split_named(key, ("sample", "actor_inputs"))
+        keys = update_keys(key)
         tr = self.sample(state, keys["sample"])
         block, c = self.block, self.config
         delta = None if c.huber is None else huber.delta_at(c.huber, episode)
@@ -158,6 +158,11 @@ class Level:
         return gated(do, lambda s: self.update(s, key, episode=episode, next_value=next_value,
                                                actor_inputs=actor_inputs),
                      lambda s: (s, zero_metrics()), state)
+
+
+def update_keys(key: jax.Array) -> dict[str, jax.Array]:
+    """An update's random streams: the minibatch's ``"sample"`` and ``"actor_inputs"``."""
+    return split_named(key, ("sample", "actor_inputs"))
 
 
 def zero_metrics() -> dict[str, Any]:
