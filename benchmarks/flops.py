@@ -170,10 +170,10 @@ def flops_per_step(algo: str, trainer: Trainer | None = None, high_updates: floa
         for _ in range(agent.n_skills):
             block_update(c, actor, critic, cfg.skill.batch_size)
             c.fwd(actor, 1)
-        meta = mlp(env.obs_dim, tuple(cfg.meta_hidden), agent.n_skills)
-        c.fwd(meta, cfg.meta_batch_size)
-        c.fwd(meta, cfg.meta_batch_size)
-        c.wgrad(meta, cfg.meta_batch_size)
+        meta = mlp(env.obs_dim, tuple(cfg.meta.hidden), agent.n_skills)
+        c.fwd(meta, cfg.meta.batch_size)
+        c.fwd(meta, cfg.meta.batch_size)
+        c.wgrad(meta, cfg.meta.batch_size)
         c.fwd(meta, 1)
         return c
     for level, times in ((agent.low, 1.0), (agent.high, high_updates)):

@@ -35,9 +35,9 @@ TINY = {
                 "agent.learning_starts=20", "agent.high_learning_starts=4",
                 "agent.pretrain_episodes=1", "agent.high.batch_size=4",
                 "agent.low.batch_size=16"],
-    "h-ddpg": ["agent.skill.hidden=[16,16]", "agent.meta_hidden=[16,16]",
+    "h-ddpg": ["agent.skill.hidden=[16,16]", "agent.meta.hidden=[16,16]",
                "agent.skill.learning_starts=20", "agent.skill.batch_size=16",
-               "agent.meta_batch_size=16"],
+               "agent.meta.batch_size=16"],
 }
 TINY["hi-ddpg-wo-model"] = TINY["hi-ddpg"]
 #: losses that are positive once an algorithm learns

@@ -23,6 +23,7 @@ from hiddpg.configs import (
     HIDDPGConfig,
     HoldChoice,
     LevelConfig,
+    MetaCriticConfig,
     NoiseConfig,
     TrainConfig,
 )
@@ -153,7 +154,7 @@ def hi_ddpg_paper(task: str) -> HIDDPGConfig:
 def h_ddpg_paper(task: str) -> HDDPGConfig:
     """h-DDPG whose skills are the family's DDPG and whose meta-critic has its networks."""
     skill = dataclasses.replace(_ddpg(task, family_values(task)), gamma=0.99)
-    return HDDPGConfig(skill=skill, meta_hidden=skill.hidden)
+    return HDDPGConfig(skill=skill, meta=MetaCriticConfig(hidden=skill.hidden))
 
 
 #: The networks of the ``quick`` preset.
@@ -184,8 +185,8 @@ def h_ddpg_quick(task: str) -> HDDPGConfig:
     agent = h_ddpg_paper(task)
     skill = dataclasses.replace(agent.skill, hidden=QUICK_HIDDEN, actor_lr=1e-3,
                                 critic_lr=1e-3, buffer_size=20_000, learning_starts=300)
-    return dataclasses.replace(agent, skill=skill, meta_hidden=QUICK_HIDDEN, meta_lr=1e-3,
-                               meta_buffer_size=20_000)
+    meta = dataclasses.replace(agent.meta, hidden=QUICK_HIDDEN, lr=1e-3, buffer_size=20_000)
+    return dataclasses.replace(agent, skill=skill, meta=meta)
 
 
 def make_config(

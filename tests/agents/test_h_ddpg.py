@@ -152,7 +152,7 @@ def test_meta_update_fits_the_dqn_target():
     next_q = np.asarray(agent.meta_q(meta.target, batch.next_obs)).max(-1)
     y = np.asarray(batch.reward) + 0.99 * (1 - np.asarray(batch.terminated)) * next_q
     assert float(loss) == pytest.approx(np.mean((y - q) ** 2), rel=1e-5)
-    tau = agent.config.meta_tau
+    tau = agent.config.meta.tau
     jax.tree_util.tree_map(lambda t, p, o: np.testing.assert_allclose(
         t, tau * p + (1 - tau) * o, rtol=1e-5, atol=1e-7), new.target, new.params, meta.target)
 

@@ -16,7 +16,7 @@ HI = ["agent.learning_starts=0", "agent.high_learning_starts=1", "agent.pretrain
 CASES = {
     "ddpg": ("ddpg", "PuckTrajectory1", [*FAST, "agent.learning_starts=0"]),
     "h-ddpg": ("h-ddpg", "PuckObstacle", ["agent.skill.learning_starts=0",
-                                          "agent.skill.hidden=[16,16]", "agent.meta_hidden=[16]"]),
+                                          "agent.skill.hidden=[16,16]", "agent.meta.hidden=[16]"]),
     "hi-ddpg hold": ("hi-ddpg", "PuckTrajectory1", [*HI, "agent.choice.explore=0.5"]),
     "hi-ddpg critic durations, hindsight": (
         "hi-ddpg", "PuckTrajectory2",

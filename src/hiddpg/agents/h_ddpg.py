@@ -132,8 +132,8 @@ class HDDPG:
             obs_dim=self.env.obs_dim, action_dim=self.patterns.actor_dim, hidden=s.hidden,
             actor_lr=s.actor_lr, critic_lr=s.critic_lr, gamma=s.gamma, tau=s.tau,
             invert_gradients=s.invert_gradients, action_l2=s.action_l2))
-        setattr_(self, "meta_net", MLP(c.meta_hidden, self.n_skills, FINAL_INIT_SCALE))
-        setattr_(self, "meta_tx", optax.adam(c.meta_lr))
+        setattr_(self, "meta_net", MLP(c.meta.hidden, self.n_skills, FINAL_INIT_SCALE))
+        setattr_(self, "meta_tx", optax.adam(c.meta.lr))
 
     @property
     def n_skills(self) -> int:
@@ -155,7 +155,7 @@ class HDDPG:
         c = self.config
         next_q = self.meta_q(meta.target, batch.next_obs).max(axis=-1)
         not_done = 1.0 - batch.terminated.astype(jnp.float32)
-        y = jax.lax.stop_gradient(batch.reward + c.meta_gamma * not_done * next_q)
+        y = jax.lax.stop_gradient(batch.reward + c.meta.gamma * not_done * next_q)
 
         def loss_fn(params: Any) -> jax.Array:
             q = self.meta_q(params, batch.obs)
@@ -166,7 +166,7 @@ class HDDPG:
         updates, opt = self.meta_tx.update(grads, meta.opt, meta.params)
         params = optax.apply_updates(meta.params, updates)
         target = jax.tree_util.tree_map(
-            lambda o, t: c.meta_tau * o + (1.0 - c.meta_tau) * t, params, meta.target)
+            lambda o, t: c.meta.tau * o + (1.0 - c.meta.tau) * t, params, meta.target)
         return MetaState(params=params, target=target, opt=opt), loss
 
     # -- skills (DDPG, vmapped over the skill axis) -------------------------------------------
@@ -206,7 +206,7 @@ class HDDPG:
             skills=jax.vmap(self.block.init)(jax.random.split(k_skills, k)),
             skill_buffers=jax.tree_util.tree_map(lambda x: jnp.stack([x] * k), one),
             meta=MetaState(params=params, target=params, opt=self.meta_tx.init(params)),
-            meta_buffer=replay.init(meta_example, c.meta_buffer_size),
+            meta_buffer=replay.init(meta_example, c.meta.buffer_size),
             env_steps=zero, episodes=zero,
         )
 
@@ -306,7 +306,7 @@ class HDDPG:
         f0 = jnp.zeros((), jnp.float32)
 
         def learn(a: HDDPGState):
-            batch = replay.sample(a.meta_buffer, k_meta, self.config.meta_batch_size)
+            batch = replay.sample(a.meta_buffer, k_meta, self.config.meta.batch_size)
             meta, meta_loss = self.meta_update(a.meta, batch)
             skills, gate, m = self.skills_update(a.skills, a.skill_buffers, k_skills)
             g = gate.astype(jnp.float32)

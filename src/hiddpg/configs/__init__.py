@@ -8,7 +8,7 @@ name the field, the bad value and what is allowed. Presets (``paper``, ``quick``
 
 from hiddpg.configs.choice import CHOICES, ActorChoice, CriticDurations, HoldChoice
 from hiddpg.configs.ddpg import DDPGConfig, LevelConfig, NoiseConfig
-from hiddpg.configs.h_ddpg import HDDPGConfig
+from hiddpg.configs.h_ddpg import HDDPGConfig, MetaCriticConfig
 from hiddpg.configs.hi_ddpg import HIDDPGConfig
 from hiddpg.configs.parts import ActionHindsight, GoalHindsight, HuberLoss, RestTerm
 from hiddpg.configs.run import (
@@ -31,5 +31,6 @@ def __getattr__(name: str):
 
 __all__ = ["ALGORITHMS", "CHOICES", "HI_DDPG_ALGORITHMS", "ActionHindsight", "ActorChoice",
            "AgentConfig", "CriticDurations", "DDPGConfig", "GoalHindsight", "HDDPGConfig",
-           "HIDDPGConfig", "HoldChoice", "HuberLoss", "LevelConfig", "NoiseConfig", "RestTerm",
-           "TrainConfig", "from_dict", "register_config_type", "to_dict"]
+           "HIDDPGConfig", "HoldChoice", "HuberLoss", "LevelConfig", "MetaCriticConfig",
+           "NoiseConfig", "RestTerm", "TrainConfig", "from_dict", "register_config_type",
+           "to_dict"]

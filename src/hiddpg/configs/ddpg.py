@@ -45,12 +45,12 @@ class NoiseConfig:
 
 
 @dataclass(frozen=True)
-class ActorCriticConfig:
-    """What every DDPG actor-critic has (spec §1): networks, discount, targets, replay, noise."""
+class ReplayLearnerConfig:
+    """A value learner with target networks and a replay buffer (the DDPG blocks, h-DDPG's
+    meta-critic)."""
 
     hidden: tuple[int, ...] = (300, 300)
-    """Hidden sizes of actor and critic (and a level's model); arm tasks add a third 300 layer
-    [paper]."""
+    """Hidden layer sizes; arm tasks add a third 300 layer [paper]."""
     gamma: float = 0.99
     """Discount."""
     tau: float = 0.001
@@ -59,6 +59,19 @@ class ActorCriticConfig:
     """Minibatch size [decision: DDPG paper]."""
     buffer_size: int = 100_000
     """Replay capacity."""
+
+    def __post_init__(self) -> None:
+        hidden(self)
+        positive(self, "batch_size", "buffer_size")
+        unit(self, "gamma", "tau")
+        buffer(self)
+
+
+@dataclass(frozen=True)
+class ActorCriticConfig(ReplayLearnerConfig):
+    """What every DDPG actor-critic has (spec §1): the learner's networks, discount, targets and
+    replay, its exploration noise and the actor's stabilisers."""
+
     noise: NoiseConfig = field(default_factory=NoiseConfig)
     """Exploration noise on the actor's normalised outputs [paper]."""
     invert_gradients: bool = False
@@ -70,12 +83,6 @@ class ActorCriticConfig:
     end_is_terminal: bool = False
     """No bootstrap at the end of any episode, time limit included (the paper's arm rule,
     §III-B) [decision per task; False: time-limit ends bootstrap, spec §3]."""
-
-    def __post_init__(self) -> None:
-        hidden(self)
-        positive(self, "batch_size", "buffer_size")
-        unit(self, "gamma", "tau")
-        buffer(self)
 
 
 @dataclass(frozen=True)

@@ -4,8 +4,26 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from hiddpg.configs.checks import hidden, positive, unit
-from hiddpg.configs.ddpg import DDPGConfig
+from hiddpg.configs.checks import positive, unit
+from hiddpg.configs.ddpg import DDPGConfig, ReplayLearnerConfig
+
+
+@dataclass(frozen=True)
+class MetaCriticConfig(ReplayLearnerConfig):
+    """h-DDPG's meta-critic, trained like a DQN on the environment reward (spec §4)."""
+
+    hidden: tuple[int, ...] = (300, 300)
+    """Hidden sizes of the meta-critic MLP [decision: those of the skills]."""
+    gamma: float = 0.99
+    """Discount of the DQN target [paper]."""
+    tau: float = 0.01
+    """Polyak rate of the target network, applied every update [decision]."""
+    lr: float = 1e-3
+    """Adam learning rate [decision]."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        positive(self, "lr")
 
 
 def _skill_default() -> DDPGConfig:
@@ -26,18 +44,8 @@ class HDDPGConfig:
     τ, batch, buffer capacity *per skill*, OU noise on the skill's unit output, action_l2.
     Its ``learning_starts`` is the run's random phase: environment steps with uniformly random
     skills and skill outputs before anything learns [decision]."""
-    meta_hidden: tuple[int, ...] = (300, 300)
-    """Hidden sizes of the meta-critic MLP [decision: those of the skills]."""
-    meta_lr: float = 1e-3
-    """Adam learning rate of the meta-critic [decision]."""
-    meta_gamma: float = 0.99
-    """Discount of the meta-critic's DQN target [paper]."""
-    meta_tau: float = 0.01
-    """Polyak rate of the meta-critic's target network, applied every update [decision]."""
-    meta_batch_size: int = 64
-    """Minibatch size of the meta-critic [decision]."""
-    meta_buffer_size: int = 100_000
-    """Capacity of the meta-critic's replay of ``(s, k, r, s', terminated)`` [decision]."""
+    meta: MetaCriticConfig = field(default_factory=MetaCriticConfig)
+    """The meta-critic ``Q_meta(s) ∈ R^K`` and its replay of ``(s, k, r, s', terminated)``."""
     epsilon_start: float = 1.0
     """ε of the ε-greedy skill choice at the first episode [decision]."""
     epsilon_end: float = 0.1
@@ -53,10 +61,8 @@ class HDDPGConfig:
     trajectories reach 1.6-2.9) [decision]."""
 
     def __post_init__(self) -> None:
-        hidden(self, "meta_hidden")
-        positive(self, "meta_lr", "meta_batch_size", "meta_buffer_size",
-                  "epsilon_decay_episodes", "puck_max_speed")
-        unit(self, "meta_gamma", "meta_tau", "epsilon_start", "epsilon_end")
+        positive(self, "epsilon_decay_episodes", "puck_max_speed")
+        unit(self, "epsilon_start", "epsilon_end")
         unit(self, "epsilon_fraction", closed=False)
         if self.epsilon_end > self.epsilon_start:
             raise ValueError(
@@ -66,8 +72,3 @@ class HDDPGConfig:
         if not isinstance(self.epsilon_decay_episodes, int):
             raise ValueError(f"HDDPGConfig.epsilon_decay_episodes="
                              f"{self.epsilon_decay_episodes!r} must be an int >= 1")
-        if self.meta_batch_size > self.meta_buffer_size:
-            raise ValueError(
-                f"HDDPGConfig.meta_batch_size={self.meta_batch_size} is larger than "
-                f"meta_buffer_size={self.meta_buffer_size}; it must be <= meta_buffer_size"
-            )

@@ -10,7 +10,7 @@ from typing import Any
 from hiddpg.configs.checks import positive
 from hiddpg.configs.choice import CHOICES
 from hiddpg.configs.ddpg import DDPGConfig, LevelConfig, NoiseConfig
-from hiddpg.configs.h_ddpg import HDDPGConfig
+from hiddpg.configs.h_ddpg import HDDPGConfig, MetaCriticConfig
 from hiddpg.configs.hi_ddpg import HIDDPGConfig
 from hiddpg.configs.parts import ActionHindsight, GoalHindsight, HuberLoss, RestTerm
 
@@ -81,8 +81,8 @@ def to_dict(cfg: Any) -> dict[str, Any]:
 
 
 _TYPES = {c.__name__: c for c in (NoiseConfig, DDPGConfig, LevelConfig, HIDDPGConfig,
-                                   HDDPGConfig, TrainConfig, HuberLoss, GoalHindsight,
-                                   ActionHindsight, RestTerm, *CHOICES)}
+                                   HDDPGConfig, MetaCriticConfig, TrainConfig, HuberLoss,
+                                   GoalHindsight, ActionHindsight, RestTerm, *CHOICES)}
 
 
 def register_config_type(cls: type) -> type:
