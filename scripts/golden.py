@@ -21,7 +21,6 @@ import sys
 import jax
 import numpy as np
 
-import hiddpg.configs
 from hiddpg.agents.gate import SEED_AXIS
 from hiddpg.presets import make_config
 from hiddpg.train import make_train, seed_keys
@@ -30,6 +29,8 @@ from hiddpg.train import make_train, seed_keys
 SHORT = ("episodes=6", "eval_every=3", "chunk_episodes=3")
 HI_SHORT = ("agent.learning_starts=40", "agent.high_learning_starts=4")
 ARM_SHORT = ("agent.pretrain_episodes=2",)
+# the option sets of ``hiddpg reproduce --scale paper`` (hiddpg.presets), fixed here so that a
+# change of the presets does not change the golden cases
 CRITIC_DURATIONS = (
     "agent.choice=critic-durations", "agent.choice.explore=0.5",
     "agent.model_weight=0", "agent.use_model=false",
@@ -38,14 +39,7 @@ CRITIC_DURATIONS = (
 )
 ARM_HIGH_CRITIC = ("agent.high_hindsight.probability=1", "agent.high.huber.delta=10",
                    "agent.high.huber.late_delta=3", "agent.high.huber.late_episode=4")
-if not hasattr(hiddpg.configs, "CriticDurations"):  # the same settings before the parts
-    CRITIC_DURATIONS = (
-        "agent.duration_choice=argmax", "agent.hold_choice=false", "agent.hold_explore=0",
-        "agent.high_time_input=true", "agent.duration_explore=0.5", "agent.model_weight=0",
-        "agent.use_model=false", "agent.high.action_l2=0.1", "agent.low.noise.final_sigma=0",
-        "agent.low_hindsight=0.8", "agent.intrinsic_rest_weight=0.3")
-    ARM_HIGH_CRITIC = ("agent.high_hindsight=1", "agent.high.huber_delta=10",
-                       "agent.high.huber_delta_late=3", "agent.high.huber_late_episode=4")
+
 TASKS = ("PuckTrajectory1", "PuckObstacle", "ArmObstacle")
 ALGOS = ("ddpg", "hi-ddpg", "hi-ddpg-wo-model", "h-ddpg")
 
