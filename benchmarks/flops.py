@@ -44,7 +44,7 @@ Trainer = Any  # hiddpg.train.Trainer (not imported: this module must not start 
 #
 # Flat DDPG, per env step: one block update (batch 64) + the actor on one observation.
 # HI-DDPG, per env step: one low-level update, one high-level update and both actors on one
-# observation. The paper preset sets ``high_update_on="step"`` (the high level learns every
+# observation. The paper preset sets ``eager_high.every_step`` (the high level learns every
 # step); with ``"segment"`` it learns at segment ends only, but under ``vmap`` its ``lax.cond``
 # is a select, so its update is still *executed* every step: either way that is what is counted.
 # SB3 DDPG, per env step: its critic takes [s, a] at the input and its actor loss
@@ -133,7 +133,7 @@ def flops_per_step(algo: str, trainer: Trainer | None = None, high_updates: floa
                    ) -> Count:
     """The matmuls one environment step of ``algo`` executes (``"sb3"``: SB3's DDPG);
     HI-DDPG's high level updates ``high_updates`` times per env step (1 with the preset's
-    ``high_update_on="step"``, segments / steps with Alg. 1's ``"segment"``)."""
+    ``eager_high.every_step``, segments / steps with Alg. 1's schedule)."""
     algo = algo.split("@")[0]
     c = Count()
     if algo == "sb3":  # PuckTrajectory2: obs 4, action 2, net_arch 300-300, batch 64

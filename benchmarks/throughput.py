@@ -135,7 +135,12 @@ class Row:
 
 
 #: benchmark variants ``ALGO@NAME``: the preset plus these overrides
-VARIANTS = {"segment": ["agent.high_update_on=segment"]}
+def _every_step(agent) -> bool:
+    """Whether HI-DDPG's high level updates at every step (``EagerHighLevel``)."""
+    return agent.eager_high is not None and agent.eager_high.every_step
+
+
+VARIANTS = {"segment": ["agent.eager_high.every_step=false"]}
 
 
 def ours_config(algo: str, episodes: int, repeats: int):
@@ -178,7 +183,7 @@ def time_ours(algo: str, seeds: int, episodes: int, repeats: int) -> Row:
     assert steps == seeds * episodes * HORIZON, steps
     high = 1.0
     if trainer.config.algo.startswith("hi-ddpg") and (
-            trainer.config.agent.high_update_on == "segment"):  # one H update per segment
+            not _every_step(trainer.config.agent)):  # one H update per segment
         high = float((np.asarray(out[1]["switches"]) + 1).sum()) / steps
     return Row(NAMES.get(algo, algo), seeds, steps, walls, cpus,
                flops_per_step(algo, trainer, high).flops, compile_s=compile_s,
@@ -266,7 +271,7 @@ def markdown(rows: list[Row], base: tuple[Row, Row] | None, skip: str, args: arg
     base_note = (f"the wall ratio divides by the SB3 row with the most steps per second "
                  f"({base[0].name}), the CPU ratio by the one with the most per CPU-second "
                  f"({base[1].name})" if base else "no SB3 baseline")
-    high_on = ours_config("hi-ddpg", 1, 1).agent.high_update_on
+    high_on = "step" if _every_step(ours_config("hi-ddpg", 1, 1).agent) else "segment"
     cmd = (f".venv/bin/python benchmarks/throughput.py --algos {' '.join(args.algos)} "
            f"--seeds {' '.join(map(str, args.seeds))} --episodes {args.episodes} "
            f"--repeats {args.repeats} --sb3-steps {args.sb3_steps} --write")
@@ -291,7 +296,8 @@ def markdown(rows: list[Row], base: tuple[Row, Row] | None, skip: str, args: arg
         "stays meaningful when other jobs share the cores; CPU/wall is the mean number of "
         "busy cores; load is the 1-minute load average when the row was measured.\n"
         "* Matmul MFLOP per env step by the formula in `benchmarks/flops.py` (HI-DDPG: a low-level "
-        f"update every step and, with the preset's `high_update_on={high_on!r}`, a high-level "
+        f"update every step and, with the preset's high-level updates at every {high_on}, a "
+        "high-level "
         "one too; with Alg. 1's schedule (`hi-ddpg@segment`) a high-level update per segment, "
         "counted from the measured segments per step); cross-checked against XLA's cost "
         "analysis of one update (all ops): "

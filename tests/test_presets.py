@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from hiddpg.configs import CriticDurations, GoalHindsight, RestTerm
+from hiddpg.configs import CriticDurations, EagerHighLevel, GoalHindsight, RestTerm
 from hiddpg.envs import make
 from hiddpg.presets import CRITIC_DURATIONS, STABILIZE, make_config
 
@@ -39,7 +39,7 @@ def test_the_action_penalty_is_for_forces_only(algo, preset):
 def test_hi_ddpg_presets(task, preset):
     for algo in ("hi-ddpg", "hi-ddpg-wo-model"):
         agent = make_config(algo, task, preset).agent
-        assert agent.pretrain_fills_high_buffer and agent.high_update_on == "step"
+        assert agent.eager_high == EagerHighLevel(every_step=True, pretraining_segments=True)
         terminating = task in ("PuckObstacle", "ArmObstacle")
         assert agent.high.end_is_terminal == terminating
         assert agent.low.env_terminal == (not terminating)

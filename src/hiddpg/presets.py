@@ -19,6 +19,7 @@ from hiddpg.algorithms import get_algorithm
 from hiddpg.configs import (
     ActorChoice,
     DDPGConfig,
+    EagerHighLevel,
     HDDPGConfig,
     HIDDPGConfig,
     HoldChoice,
@@ -146,7 +147,7 @@ def hi_ddpg_paper(task: str) -> HIDDPGConfig:
     return HIDDPGConfig(
         high=high, low=low, duration_min=v.duration_min, duration_max=v.duration_max,
         switch_cost=10.0 if switching else 0.0, pretrain_episodes=v.pretrain_episodes,
-        lr_decay=v.lr_decay, high_update_on="step", pretrain_fills_high_buffer=True,
+        lr_decay=v.lr_decay, eager_high=EagerHighLevel(),
         choice=HOLD_CHOICE if switching else ActorChoice(),
     )
 

@@ -32,7 +32,7 @@ from hi_ddpg_support import (
 
 from hiddpg.agents import make_agent
 from hiddpg.agents.hi_ddpg import make_hiddpg
-from hiddpg.configs import NoiseConfig
+from hiddpg.configs import EagerHighLevel, NoiseConfig
 from hiddpg.envs.puckworld import PuckState, PuckTrajectory1
 
 
@@ -156,10 +156,10 @@ def test_vmap_over_seeds_equals_single_runs():
 
 
 def test_pretraining_can_fill_the_high_buffer():
-    """``pretrain_fills_high_buffer``: the pre-training segments (random goals and durations)
-    go into D_H with their true rewards and end states, while the high level still learns
-    nothing until pre-training ends."""
-    config = dataclasses.replace(PUCK, pretrain_fills_high_buffer=True)
+    """``EagerHighLevel.pretraining_segments``: the pre-training segments (random goals and
+    durations) go into D_H with their true rewards and end states, while the high level still
+    learns nothing until pre-training ends."""
+    config = dataclasses.replace(PUCK, eager_high=EagerHighLevel(every_step=False))
     agent = make_agent("hi-ddpg-wo-model", config, PuckTrajectory1())
     run = _run(agent, PuckTrajectory1(), 3)
     for e in (1, 2):

@@ -12,7 +12,8 @@ use uniformly random goals, durations and actions; during the first ``pretrain_e
 episodes the high level is bypassed (uniformly random goals and durations). Our additions are
 parts plugged in at one seam each: how the high level chooses (:mod:`~hiddpg.agents.choice`),
 hindsight (:mod:`~hiddpg.agents.hindsight`), the intrinsic reward's rest term
-(:mod:`~hiddpg.agents.intrinsic`), the critics' Huber loss (:mod:`~hiddpg.agents.huber`).
+(:mod:`~hiddpg.agents.intrinsic`), the critics' Huber loss (:mod:`~hiddpg.agents.huber`), more
+high-level updates and data (:mod:`~hiddpg.agents.eager`).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from hiddpg.agents import noise
+from hiddpg.agents import eager, noise
 from hiddpg.agents.block import value_terminal
 from hiddpg.agents.choice import Chooser, make_chooser
 from hiddpg.agents.episode import decay_factor, run_episode
@@ -230,13 +231,13 @@ class HIDDPG:
             next_obs=choice.inputs(res.obs, steps_left - 1, horizon),
             terminated=value_terminal(res, c.high.end_is_terminal, c.high.env_terminal))
         # lines 11 and 15: D_L every step, D_H at a segment's end
-        store_high = ~pretrain | c.pretrain_fills_high_buffer
+        store_high = eager.stores_segment(c.eager_high, pretrain)
         state = state.replace(low=self.low.store(state.low, low_tr, alive),
                               high=self.high.store(state.high, high_tr, seg_end & store_high))
         # lines 12 and 16-20: one low-level update a step, one high-level update a segment
         started = ~random_phase
         learn_low = alive & started
-        high_tick = seg_end if c.high_update_on == "segment" else alive
+        high_tick = eager.high_update_due(c.eager_high, seg_end, alive)
         learn_high = (high_tick & started & ~pretrain
                       & (state.high.buffer.size >= c.high_learning_starts))
         low_state, low_m = self.low_update(state.low, keys["low_update"], learn_low,

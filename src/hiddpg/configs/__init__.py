@@ -10,7 +10,13 @@ from hiddpg.configs.choice import CHOICES, ActorChoice, CriticDurations, HoldCho
 from hiddpg.configs.ddpg import DDPGConfig, LevelConfig, NoiseConfig
 from hiddpg.configs.h_ddpg import HDDPGConfig, MetaCriticConfig
 from hiddpg.configs.hi_ddpg import HIDDPGConfig
-from hiddpg.configs.parts import ActionHindsight, GoalHindsight, HuberLoss, RestTerm
+from hiddpg.configs.parts import (
+    ActionHindsight,
+    EagerHighLevel,
+    GoalHindsight,
+    HuberLoss,
+    RestTerm,
+)
 from hiddpg.configs.run import (
     AgentConfig,
     TrainConfig,
@@ -30,7 +36,7 @@ def __getattr__(name: str):
 
 
 __all__ = ["ALGORITHMS", "CHOICES", "HI_DDPG_ALGORITHMS", "ActionHindsight", "ActorChoice",
-           "AgentConfig", "CriticDurations", "DDPGConfig", "GoalHindsight", "HDDPGConfig",
-           "HIDDPGConfig", "HoldChoice", "HuberLoss", "LevelConfig", "MetaCriticConfig",
-           "NoiseConfig", "RestTerm", "TrainConfig", "from_dict", "register_config_type",
-           "to_dict"]
+           "AgentConfig", "CriticDurations", "DDPGConfig", "EagerHighLevel", "GoalHindsight",
+           "HDDPGConfig", "HIDDPGConfig", "HoldChoice", "HuberLoss", "LevelConfig",
+           "MetaCriticConfig", "NoiseConfig", "RestTerm", "TrainConfig", "from_dict",
+           "register_config_type", "to_dict"]

@@ -5,12 +5,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal
 
 from hiddpg.configs.checks import positive, unit
 from hiddpg.configs.choice import ActorChoice, CriticDurations, HighChoiceConfig
 from hiddpg.configs.ddpg import LevelConfig
-from hiddpg.configs.parts import ActionHindsight, GoalHindsight, RestTerm
+from hiddpg.configs.parts import ActionHindsight, EagerHighLevel, GoalHindsight, RestTerm
 
 
 def _high_default() -> LevelConfig:
@@ -47,12 +46,9 @@ class HIDDPGConfig:
     """Learning rates multiplied by this every ``lr_decay_every`` episodes: arm 0.99 [paper]."""
     lr_decay_every: int = 50
     """Episodes between two learning-rate decays [paper]."""
-    high_update_on: Literal["segment", "step"] = "segment"
-    """The high level learns at every segment end (Alg. 1 lines 16-20) [paper], or at every
-    environment step [decision]."""
-    pretrain_fills_high_buffer: bool = False
-    """Store the pre-training phase's segments in ``D_H`` [decision; False: D_H starts empty
-    after pre-training]."""
+    eager_high: EagerHighLevel | None = None
+    """More high-level updates and data than Alg. 1's [decision; None: one update per
+    segment end, ``D_H`` empty after pre-training, the paper's]."""
     choice: HighChoiceConfig = field(default_factory=ActorChoice)
     """How the high level chooses ``(g, T)``: the actor [paper], or the critic's hold or
     duration choice (:mod:`hiddpg.configs.choice`) [decision]."""
@@ -64,9 +60,6 @@ class HIDDPGConfig:
     """The intrinsic reward's rest term [decision; None: the goal entries only]."""
 
     def __post_init__(self) -> None:
-        if self.high_update_on not in ("segment", "step"):
-            raise ValueError(f"HIDDPGConfig.high_update_on={self.high_update_on!r} must be "
-                             "'segment' or 'step'")
         positive(self, "duration_min", "duration_max", "lr_decay_every")
         if self.duration_min > self.duration_max:
             raise ValueError(

@@ -59,6 +59,19 @@ class ActionHindsight:
 
 
 @dataclass(frozen=True)
+class EagerHighLevel:
+    """The high level learns from more than Alg. 1 gives it: an update at every environment
+    step instead of one per segment, and the pre-training's segments in ``D_H``
+    (:mod:`hiddpg.agents.eager`) [decision]."""
+
+    every_step: bool = True
+    """One high-level update at every environment step (Alg. 1: at every segment end)."""
+    pretraining_segments: bool = True
+    """``D_H`` also stores the low-level pre-training's segments (random goals and durations,
+    their true rewards and end states); the high level still does not learn in pre-training."""
+
+
+@dataclass(frozen=True)
 class RestTerm:
     """The intrinsic reward also counts the goal state's other entries (the velocities, 0 in
     the paper's goal ``[gx, gy, 0, 0]``), weighted by ``weight``, so the low level learns to

@@ -12,7 +12,13 @@ from hiddpg.configs.choice import CHOICES
 from hiddpg.configs.ddpg import DDPGConfig, LevelConfig, NoiseConfig
 from hiddpg.configs.h_ddpg import HDDPGConfig, MetaCriticConfig
 from hiddpg.configs.hi_ddpg import HIDDPGConfig
-from hiddpg.configs.parts import ActionHindsight, GoalHindsight, HuberLoss, RestTerm
+from hiddpg.configs.parts import (
+    ActionHindsight,
+    EagerHighLevel,
+    GoalHindsight,
+    HuberLoss,
+    RestTerm,
+)
 
 AgentConfig = DDPGConfig | HIDDPGConfig | HDDPGConfig
 
@@ -82,7 +88,8 @@ def to_dict(cfg: Any) -> dict[str, Any]:
 
 _TYPES = {c.__name__: c for c in (NoiseConfig, DDPGConfig, LevelConfig, HIDDPGConfig,
                                    HDDPGConfig, MetaCriticConfig, TrainConfig, HuberLoss,
-                                   GoalHindsight, ActionHindsight, RestTerm, *CHOICES)}
+                                   GoalHindsight, ActionHindsight, RestTerm, EagerHighLevel,
+                                   *CHOICES)}
 
 
 def register_config_type(cls: type) -> type:
