@@ -46,7 +46,7 @@ class Chooser:
     @property
     def level(self) -> Level:
         """The high level: input ``s``, action ``(g, T)``, the model-based gradient."""
-        return Level(self.level_config, state_dim=self.obs_dim + int(self.time_input),
+        return Level(config=self.level_config, state_dim=self.obs_dim + int(self.time_input),
                      context_dim=0, action_dim=self.goal_dim + 1, time_scale=1.0,
                      model_weight=self.model_weight, use_model=self.use_model)
 

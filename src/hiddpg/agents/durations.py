@@ -40,7 +40,7 @@ class DurationChooser(Chooser):
     @property
     def level(self) -> Level:
         """Input ``s``, context ``τ``, action ``g``; no model."""
-        return Level(self.level_config, state_dim=self.obs_dim + 1, context_dim=1,
+        return Level(config=self.level_config, state_dim=self.obs_dim + 1, context_dim=1,
                      action_dim=self.goal_dim, time_scale=1.0, model_weight=0.0,
                      use_model=False)
 

@@ -65,16 +65,17 @@ class HIDDPG:
     @cached_property
     def intrinsic_reward(self) -> IntrinsicReward:
         """``r_int(s', g)`` (spec §2)."""
-        return IntrinsicReward(self.env.goal_space, self.env.obs_dim, self.config.rest_term)
+        return IntrinsicReward(goal_space=self.env.goal_space, obs_dim=self.env.obs_dim,
+                               rest=self.config.rest_term)
 
     @cached_property
     def low(self) -> Level:
         c, env = self.config, self.env
         hindsight = None
         if c.low_hindsight is not None:
-            hindsight = Hindsight(c.low_hindsight.fraction, env.goal_space, env.obs_dim,
-                                  self.intrinsic_reward)
-        return Level(c.low, state_dim=env.obs_dim, context_dim=env.obs_dim,
+            hindsight = Hindsight(fraction=c.low_hindsight.fraction, goal_space=env.goal_space,
+                                  obs_dim=env.obs_dim, reward=self.intrinsic_reward)
+        return Level(config=c.low, state_dim=env.obs_dim, context_dim=env.obs_dim,
                      action_dim=env.action_dim, time_scale=float(env.dt),
                      model_weight=c.model_weight, use_model=c.use_model, hindsight=hindsight)
 
@@ -94,7 +95,8 @@ class HIDDPG:
         del env_params
         k_high, k_low = jax.random.split(key)
         zero = jnp.zeros((), jnp.int32)
-        return HIDDPGState(self.high.init(k_high), self.low.init(k_low), zero, zero)
+        return HIDDPGState(high=self.high.init(k_high), low=self.low.init(k_low),
+                           env_steps=zero, episodes=zero)
 
     # -- Alg. 1 line 7: the high level chooses (g, T), with OU noise -----------------------------
     def choose(self, state: HIDDPGState, seg: Segment, hobs: jax.Array,

@@ -77,8 +77,9 @@ class Level:
 
     @property
     def model(self) -> DynamicsModel:
-        return DynamicsModel(self.state_dim, self.action_dim, tuple(self.config.hidden),
-                             self.config.lr, self.time_scale)
+        return DynamicsModel(obs_dim=self.state_dim, action_dim=self.action_dim,
+                             hidden=tuple(self.config.hidden), lr=self.config.lr,
+                             time_scale=self.time_scale)
 
     def init(self, key: jax.Array) -> LevelState:
         k_block, k_model = jax.random.split(key)
