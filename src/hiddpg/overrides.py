@@ -83,7 +83,7 @@ def _set_path(obj: Any, path: list[str], raw: str, full: str) -> Any:
 def _parts(hint: Any) -> tuple[list[type], bool]:
     """The config classes a field may hold (one, or a union of them) and whether it may be
     None; ``([], False)`` for a plain value or a fixed group."""
-    if not isinstance(hint, types.UnionType | typing._UnionGenericAlias):  # noqa: SLF001
+    if typing.get_origin(hint) not in (typing.Union, types.UnionType):
         return [], False
     members = typing.get_args(hint)
     classes = [m for m in members if dataclasses.is_dataclass(m)]
