@@ -5,7 +5,9 @@ A field that holds an optional part (``agent.low_hindsight``, ``agent.high.huber
 with its defaults when one of its keys is set and removed with ``=none``; a field that holds
 one of several configs (``agent.choice``) takes the chosen one's ``kind``
 (``agent.choice=hold``, with its defaults; its keys are set after it). The whole config is
-validated once, after every override.
+validated once, after every override. A non-finite number (``nan``, ``inf``, ``-Infinity``,
+in any spelling) for a numeric field or an environment parameter is refused with one message,
+``--set agent.actor_lr=nan: must be a finite number``.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import json
+import math
 import types
 import typing
 from typing import Any
@@ -37,7 +40,7 @@ def apply_overrides(cfg: TrainConfig, sets: list[str] | tuple[str, ...]) -> Trai
         path = key.split(".")
         if path[0] == "env" and len(path) == 2:
             env = dict(cfg.env)
-            env[path[1]] = _parse(raw)
+            env[path[1]] = _finite(_parse(raw), key)
             cfg = _replace_unchecked(cfg, env=tuple(sorted(env.items())))
             continue
         cfg = _set_path(cfg, path, raw, full=key)
@@ -120,8 +123,31 @@ def _parse(raw: str) -> Any:
         return raw.strip()
 
 
+def _non_finite(value: Any) -> float | None:
+    """``value`` as a float if it is a non-finite number or a word that spells one (``nan``,
+    ``NaN``, ``inf``, ``-Infinity``, ``1e999``, ...); None otherwise."""
+    if isinstance(value, bool) or not isinstance(value, int | float | str):
+        return None
+    try:
+        number = float(value)
+    except (ValueError, OverflowError):
+        return None
+    return None if math.isfinite(number) else number
+
+
+def _finite(value: Any, full: str) -> Any:
+    """``value``, unless it is a non-finite number in any spelling: then one message that
+    names the key and the value."""
+    number = _non_finite(value)
+    if number is not None:
+        raise ValueError(f"--set {full}={number!r}: must be a finite number")
+    return value
+
+
 def _coerce(value: Any, hint: Any, current: Any, full: str) -> Any:
     bad = ValueError(f"--set {full}: {value!r} is not a valid {type(current).__name__}")
+    if isinstance(current, int | float) and not isinstance(current, bool):
+        _finite(value, full)
     if isinstance(current, bool):
         if not isinstance(value, bool):
             raise bad
