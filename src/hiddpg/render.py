@@ -5,7 +5,10 @@ task once (the puck's reference trajectory and goals, the obstacle, the arm's ta
 each frame on a copy of it, so a 75-step GIF takes a few tens of milliseconds to draw.
 
 Frames can carry an :class:`Overlay`: a hierarchical agent's goals (the active one highlighted),
-the trail of positions so far, the points where the agent switched goals, and lines of text.
+the trail of positions so far, the points where the agent switched goals, lines of text, and a
+legend: a strip below the view naming each mark next to its swatch, listing only what is drawn
+(:meth:`Scene.legend_items`). :func:`render_rollout` gives every frame of an episode the same
+legend and the step and ``env_return`` (the sum of the environment's rewards) so far.
 What each environment family looks like is drawn by :mod:`hiddpg.render_puck` and
 :mod:`hiddpg.render_arm`, in the colours of :mod:`hiddpg.render_style`.
 
@@ -33,9 +36,11 @@ except ImportError as e:  # pragma: no cover
 from hiddpg.envs.arm import ArmParams
 from hiddpg.envs.puckworld import PuckParams
 from hiddpg.render_arm import MUSCLES, ArmDrawing
+from hiddpg.render_legend import LegendDrawing
 from hiddpg.render_puck import PuckDrawing
 from hiddpg.render_style import (
     AGENT_GOAL,
+    FORCE,
     GRID,
     INK,
     MUSCLE_ACTIVE,
@@ -49,13 +54,15 @@ from hiddpg.render_style import (
     TRAIL,
     WHITE,
     Color,
+    LegendItem,
 )
 from hiddpg.render_style import blend as _blend
 
 __all__ = [
-    "AGENT_GOAL", "GRID", "INK", "MUSCLES", "MUSCLE_ACTIVE", "MUSCLE_REST", "OBSTACLE", "PUCK",
-    "REFERENCE", "REF_GOAL", "SWITCH", "TARGET", "TRAIL", "WHITE", "Color", "Overlay", "Scene",
-    "render_frame", "render_rollout", "write_gif", "write_png",
+    "AGENT_GOAL", "FORCE", "GRID", "INK", "MUSCLES", "MUSCLE_ACTIVE", "MUSCLE_REST", "OBSTACLE",
+    "PUCK", "REFERENCE", "REF_GOAL", "SWITCH", "TARGET", "TRAIL", "WHITE", "Color", "LegendItem",
+    "Overlay", "Scene", "render_frame", "render_rollout", "rollout_overlays", "write_gif",
+    "write_png",
 ]
 
 
@@ -69,7 +76,11 @@ class Overlay:
         active_goal: index in ``goals`` of the goal being pursued (highlighted).
         trail: world positions visited so far (puck centre or hand), oldest first.
         switch_points: world positions at which the agent switched goals.
-        text: lines written in the top-left corner (e.g. ``"step 12  return -3.4"``).
+        text: lines written in the top-left corner (e.g. ``"step 12  env_return -3.4"``).
+        goal_label: the legend's name of the goals (e.g. ``"learned goal"``).
+        switch_label: the legend's name of the switch points (e.g. ``"skill change"``).
+        legend: entries drawn in a strip below the view (none: no strip); see
+            :meth:`Scene.legend_items`.
     """
 
     goals: Sequence[Sequence[float]] = ()
@@ -77,9 +88,12 @@ class Overlay:
     trail: Sequence[Sequence[float]] = ()
     switch_points: Sequence[Sequence[float]] = ()
     text: Sequence[str] = ()
+    goal_label: str = "goal"
+    switch_label: str = "goal switch"
+    legend: Sequence[LegendItem] = ()
 
 
-class Scene(PuckDrawing, ArmDrawing):
+class Scene(PuckDrawing, ArmDrawing, LegendDrawing):
     """Draws frames of one task with fixed params.
 
     Args:
@@ -165,6 +179,12 @@ class Scene(PuckDrawing, ArmDrawing):
             self._circle(draw, q, 5, outline=SWITCH, width=2)
         for i, line in enumerate(overlay.text):
             draw.text((6, 4 + i * (self.font.size + 3)), line, fill=INK, font=self.font)
+        if overlay.legend:
+            strip = self.legend_strip(overlay.legend)
+            framed = Image.new("RGB", (self.size[0], self.size[1] + strip.size[1]), WHITE)
+            framed.paste(img, (0, 0))
+            framed.paste(strip, (0, self.size[1]))
+            img = framed
         return np.asarray(img, np.uint8)
 
     def _goal_color(self, i: int, overlay: Overlay) -> Color:
@@ -184,46 +204,72 @@ def render_frame(core: Any, params: Any, state: Any, action: Any = None,
     return Scene(core, params, width).frame(state, action, overlay)
 
 
-def render_rollout(core: Any, params: Any, states: Any, actions: Any = None,
-                   rewards: Any = None, goals: Any = None, switches: Any = None,
-                   width: int | None = None, title: str = "",
-                   target: Any = None) -> list[np.ndarray]:
-    """Frames of an episode with its trail, step counter and return so far.
-
-    Args:
-        states: ``(T + 1, state_dim)`` physical states, the initial one first.
-        actions: ``(T, action_dim)`` normalised actions (frame ``k > 0`` shows action ``k - 1``).
-        rewards: ``(T,)`` rewards; the text shows the return accumulated so far.
-        goals: ``(T, goal_dim)`` the goal an agent pursued at each step, or ``None``.
-        switches: ``(T,)`` bools, True where the agent chose a new goal at that step (default:
-            wherever ``goals`` changes).
-        title: a first line of text on every frame.
-        target: the arm's joint-space target if not in the params (see :class:`Scene`).
-    """
-    scene = Scene(core, params, width, target=target)
+def rollout_overlays(scene: Scene, states: Any, actions: Any = None, rewards: Any = None,
+                     goals: Any = None, switches: Any = None, title: str = "",
+                     notes: Sequence[str] | None = None, goal_label: str = "goal",
+                     switch_label: str = "goal switch", legend: bool = True) -> list[Overlay]:
+    """The overlays of an episode's frames (see :func:`render_rollout` for the arguments): the
+    trail, goals and switch points so far, the text ``step k   env_return R`` (the sum of the
+    environment's rewards so far) and, when ``legend``, one legend for every frame naming all
+    that the episode draws."""
     states = np.asarray(states)
     if goals is not None:
         goals = np.asarray(goals)
         if switches is None:  # a switch wherever the goal changes
             switches = np.r_[True, np.any(goals[1:] != goals[:-1], axis=-1)]
+    if switches is not None:
         switches = np.asarray(switches, bool)
-    trail, ret, switch_points, goal_list, frames = [], 0.0, [], [], []
+    trail, ret, switch_points, goal_list, overlays = [], 0.0, [], [], []
     for k, x in enumerate(states):
         trail.append(scene.position(x))
-        a = None if actions is None or k == 0 else np.asarray(actions)[k - 1]
         if rewards is not None and k > 0:
             ret += float(np.asarray(rewards)[k - 1])
-        if goals is not None and k < len(goals) and (switches[k] or not goal_list):
+        new = switches is not None and k < len(switches) and bool(switches[k])
+        if goals is not None and k < len(goals) and (new or not goal_list):
             goal_list.append(goals[k])
-            if k > 0:
-                switch_points.append(trail[-1])
+        if new and k > 0:
+            switch_points.append(trail[-1])
         text = [title] if title else []
-        text.append(f"step {k:3d}" + (f"   return {ret:8.2f}" if rewards is not None else ""))
-        overlay = Overlay(goals=list(goal_list),
-                          active_goal=len(goal_list) - 1 if goal_list else None,
-                          trail=list(trail), switch_points=list(switch_points), text=text)
-        frames.append(scene.frame(x, a, overlay))
-    return frames
+        text.append(f"step {k:3d}" + (f"   env_return {ret:8.2f}" if rewards is not None else "")
+                    + (f"   {notes[k]}" if notes is not None and k < len(notes) else ""))
+        overlays.append(Overlay(
+            goals=list(goal_list), active_goal=len(goal_list) - 1 if goal_list else None,
+            trail=list(trail), switch_points=list(switch_points), text=text,
+            goal_label=goal_label, switch_label=switch_label))
+    if legend and overlays:
+        items = scene.legend_items(overlays[-1], action=actions is not None)
+        for overlay in overlays:
+            overlay.legend = items
+    return overlays
+
+
+def render_rollout(core: Any, params: Any, states: Any, actions: Any = None,
+                   rewards: Any = None, goals: Any = None, switches: Any = None,
+                   width: int | None = None, title: str = "", target: Any = None,
+                   notes: Sequence[str] | None = None, goal_label: str = "goal",
+                   switch_label: str = "goal switch", legend: bool = True) -> list[np.ndarray]:
+    """Frames of an episode with its trail, step counter, ``env_return`` so far and a legend.
+
+    Args:
+        states: ``(T + 1, state_dim)`` physical states, the initial one first.
+        actions: ``(T, action_dim)`` normalised actions (frame ``k > 0`` shows action ``k - 1``).
+        rewards: ``(T,)`` the environment's rewards; the text shows their sum so far
+            (``env_return``, as in ``hiddpg eval``'s table).
+        goals: ``(T, goal_dim)`` the goal an agent pursued at each step, or ``None``.
+        switches: ``(T,)`` bools, True where the agent chose a new goal (or skill) at that step
+            (default: wherever ``goals`` changes); marked from step 1 on.
+        title: a first line of text on every frame.
+        target: the arm's joint-space target if not in the params (see :class:`Scene`).
+        notes: ``(T + 1,)`` text added to each frame's step line (e.g. the current skill).
+        goal_label, switch_label: the legend's names of the goals and switch points.
+        legend: draw the legend strip below the view.
+    """
+    scene = Scene(core, params, width, target=target)
+    overlays = rollout_overlays(scene, states, actions, rewards, goals, switches, title, notes,
+                                goal_label, switch_label, legend)
+    actions = None if actions is None else np.asarray(actions)
+    return [scene.frame(x, None if actions is None or k == 0 else actions[k - 1], overlay)
+            for k, (x, overlay) in enumerate(zip(np.asarray(states), overlays, strict=True))]
 
 
 def write_gif(frames: Sequence[np.ndarray], path: str | Path, fps: float = 10.0) -> Path:

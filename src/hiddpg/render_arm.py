@@ -1,5 +1,5 @@
 """How :class:`hiddpg.render.Scene` draws the arm: its view, torso and obstacle, postures and
-muscles."""
+muscles, and the legend entries of what it draws."""
 
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ from hiddpg.render_style import (
     PUCK,
     TARGET,
     WHITE,
+    LegendItem,
     blend,
 )
 
@@ -88,6 +89,20 @@ class ArmDrawing:
         for q in joints[:2]:
             self._circle(draw, q, 6, fill=WHITE, outline=INK, width=2)
         self._circle(draw, joints[2], 5, fill=PUCK, outline=INK, width=1)
+
+    def _arm_legend(self, action: bool) -> tuple[list[LegendItem], list[LegendItem]]:
+        """The entries of the static layer (obstacle, its collision distance, the target) and of
+        the arm and its muscles (shaded by activation when ``action``), in the order listed."""
+        static = []
+        if getattr(self.params, "obstacle_center", None) is not None:
+            static += [LegendItem("obstacle", "disc", OBSTACLE),
+                       LegendItem("collision distance", "ring", blend(OBSTACLE, WHITE, 0.6))]
+        if self.target is not None:
+            static.append(LegendItem("target (hand)", "target", TARGET))
+        body = [LegendItem("hand", "disc", PUCK)]
+        if action:
+            body.append(LegendItem("muscles (red: active)", "band", MUSCLE_ACTIVE))
+        return static, body
 
     @staticmethod
     def _muscle_path(joints: np.ndarray, span: str, side: int) -> list[np.ndarray]:

@@ -1,4 +1,5 @@
-"""How :class:`hiddpg.render.Scene` draws PuckWorld: its view, reference, obstacle and puck."""
+"""How :class:`hiddpg.render.Scene` draws PuckWorld: its view, reference, obstacle and puck,
+and the legend entries of what it draws."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 
 from hiddpg.envs.puckworld import PuckObstacleParams, PuckTrajectoryParams
 from hiddpg.render_style import (
-    AGENT_GOAL,
+    FORCE,
     INK,
     OBSTACLE,
     PUCK,
@@ -16,6 +17,7 @@ from hiddpg.render_style import (
     REFERENCE,
     TARGET,
     WHITE,
+    LegendItem,
     blend,
 )
 
@@ -65,5 +67,24 @@ class PuckDrawing:
         if action is not None:
             a = np.clip(np.asarray(action, np.float64), -1.0, 1.0)
             tip = x[:2] + 0.3 * a
-            draw.line((*self.px(x[:2]), *self.px(tip)), fill=AGENT_GOAL, width=2)
+            draw.line((*self.px(x[:2]), *self.px(tip)), fill=FORCE, width=2)
         self._circle(draw, x[:2], 7, fill=PUCK, outline=INK, width=1)
+
+    def _puck_legend(self, action: bool) -> tuple[list[LegendItem], list[LegendItem]]:
+        """The entries of the static layer (reference, obstacle, target) and of the puck and
+        its force (when ``action``), in the order they are listed."""
+        p = self.params
+        static = []
+        if isinstance(p, PuckTrajectoryParams):
+            n = len(np.asarray(p.goals))
+            names = ", ".join(f"g{i + 1}" for i in range(n))
+            static += [LegendItem("reference path", "line", REFERENCE),
+                       LegendItem(f"reference goal{'s' if n > 1 else ''} {names}", "cross",
+                                  REF_GOAL)]
+        if isinstance(p, PuckObstacleParams):
+            static += [LegendItem("obstacle", "blob", OBSTACLE),
+                       LegendItem("target", "target", TARGET)]
+        body = [LegendItem("puck", "disc", PUCK)]
+        if action:
+            body.append(LegendItem("force (action)", "line", FORCE))
+        return static, body

@@ -7,10 +7,13 @@
 The demo runs a scripted controller (no learning): the LQR reference controller on the puck
 trajectory tasks (return ≈ 0), a detour through a waypoint above the disc on PuckObstacle, the
 two-stroke posture detour of the paper's Fig. 6B on ArmObstacle, and random muscle activations
-(held for 0.2 s) on ArmReach. The controller's goals are drawn as overlays.
+(held for 0.2 s) on ArmReach. The controller's goals are drawn as overlays, with a legend below
+the view and the ``env_return`` (the sum of the environment's rewards) so far.
 
 Parsed with tyro (``subcommand_cli_from_dict``); errors in the task or params print one line
-and exit with code 2.
+and exit with code 2. ``--out`` must name a file ending in ``.gif`` and ``--still`` one ending
+in ``.png``, neither an existing directory; their missing parent directories are created. They
+are checked before the rollout runs.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import tyro
 
 from hiddpg.commands.common import run_tyro
 from hiddpg.envs import TASKS, make, task_name
+from hiddpg.paths import gif_path, png_path
 
 #: PuckObstacle demo [decision]: aim at a waypoint above the disc until within
 #: ``WAYPOINT_RADIUS`` of it, then at the target (clearance ≈ 0.47 with the spec's disc).
@@ -36,6 +40,8 @@ WAYPOINT_RADIUS = 0.4
 HOLD_STEPS = 10
 #: Frame rate cap of demo GIFs: the arm (50 control steps/s) plays at half speed.
 MAX_FPS = 25.0
+#: The narrowest frame ``--width`` allows, in pixels (the text and legend need the room).
+MIN_WIDTH = 160
 
 # A controller: (key, state, phase, params) -> (normalised action, goal shown, new phase).
 Controller = Callable[[jax.Array, Any, jax.Array, Any], tuple[jax.Array, jax.Array, jax.Array]]
@@ -195,22 +201,31 @@ def demo(
 
     Args:
         task: a task name or id, e.g. PuckTrajectory2 or hiddpg/ArmReach-v0.
-        out: the GIF to write.
+        out: the GIF to write (a name ending in .gif).
         seed: PRNG seed (ArmReach's target and random activations).
         overrides: a core parameter, e.g. --set field=cw --set dt=0.05.
         width: frame width in pixels (default 400 for the puck, 480 for the arm).
-        still: also write one frame as a PNG here (the pictures in docs/img are made so).
+        still: also write one frame as a PNG here (a name ending in .png; the pictures in
+            docs/img are made so).
         still_step: which frame --still writes (Python index; -1 is the last).
     """
     from hiddpg import render
 
+    out = gif_path(out, "--out")
+    still = None if still is None else png_path(still, "--still")
+    if width is not None and width < MIN_WIDTH:
+        raise ValueError(f"--width {width} must be at least {MIN_WIDTH} (pixels)")
     run = demo_rollout(task, seed, **parse_overrides(overrides))
     core = run["core"]
     name = task_name(task)
     frames = render.render_rollout(
         core, run["params"], run["states"], run["actions"], run["rewards"], goals=run["goals"],
         width=width, title=f"{name} (scripted demo)", target=run["target"],
+        goal_label="scripted goal",
     )
+    if still is not None and not -len(frames) <= still_step < len(frames):
+        raise ValueError(f"--still-step {still_step} is outside the {len(frames)} frames; give "
+                         f"an index in [{-len(frames)}, {len(frames) - 1}]")
     path = render.write_gif(frames, out, fps=min(1.0 / core.dt, MAX_FPS))
     if still is not None:
         render.write_png(frames[still_step], still)

@@ -5,10 +5,17 @@
     hiddpg eval DIR [--seed S] [--gif FILE] [--key K]
 
 Loads ``DIR``'s config and checkpoint, runs one noise-free, non-learning episode per seed
-(:meth:`hiddpg.train.Trainer.evaluate_seeds`) and prints return, environment return, goal
-switches and length per seed. ``--gif FILE`` draws seed ``S``'s episode (default: the run's
-first seed) with :mod:`hiddpg.render`: HI-DDPG's current goal and its switch points, h-DDPG's
-current skill and the steps where it changed.
+(:meth:`hiddpg.train.Trainer.evaluate_seeds`) and prints per seed the columns ``return`` (the
+agent's return: for HI-DDPG the high-level return, ``env_return`` minus the switch cost of
+every goal after the first; for the other algorithms ``env_return``), ``env_return`` (the sum
+of the environment's rewards), ``switches`` and ``length``, then their mean and standard
+deviation over the seeds. ``--gif FILE`` draws seed ``S``'s episode (default: the run's first
+seed) with :mod:`hiddpg.render`: HI-DDPG's current goal and its switch points, h-DDPG's
+current skill and the steps where it changed, the ``env_return`` so far, and a legend.
+
+``--gif`` must name a file ending in ``.gif`` that is not a directory; its missing parent
+directories are created. ``DIR`` and ``--gif`` are checked before anything is loaded: a bad
+one prints one line naming it and exits with code 2.
 """
 
 from __future__ import annotations
@@ -22,6 +29,7 @@ import numpy as np
 
 from hiddpg.commands.common import Parser as _Parser
 from hiddpg.commands.common import UsageError, run_command
+from hiddpg.paths import existing_dir, gif_path
 from hiddpg.runs import Run, make_trainer
 from hiddpg.train import eval_keys
 
@@ -29,6 +37,10 @@ PROG = "hiddpg eval"
 #: GIF frame rate cap: the arm (50 control steps/s) plays at half speed.
 MAX_FPS = 25.0
 COLUMNS = ("return", "env_return", "switches", "length")
+#: What the table's columns are, printed under it.
+COLUMN_NOTE = ("return: the agent's return (HI-DDPG: the high-level return, env_return minus "
+               "the switch costs; other algorithms: env_return); env_return: the sum of the "
+               "environment's rewards (the GIF's running number)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -36,7 +48,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("run", metavar="DIR", help="a run directory written by `hiddpg train`")
     p.add_argument("--seed", type=int, default=None,
                    help="only this seed (default: all); the GIF's seed (default: the first)")
-    p.add_argument("--gif", default=None, metavar="FILE", help="write the episode as a GIF")
+    p.add_argument("--gif", default=None, metavar="FILE.gif",
+                   help="write the episode as an animated GIF (a name ending in .gif; missing "
+                   "directories are created)")
     p.add_argument("--key", type=int, default=0,
                    help="evaluation key: seed s is evaluated with fold_in(PRNGKey(K), s)")
     return p
@@ -49,8 +63,11 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _open(args: argparse.Namespace) -> tuple[Run, Any]:
-    """The run to evaluate and its trainer; a usage error if the seed or checkpoint is missing."""
-    run = Run.open(args.run)
+    """The run to evaluate and its trainer; a usage error if the GIF path is unusable, or the
+    run directory, the seed or the checkpoint is missing (the paths are checked first)."""
+    if args.gif is not None:
+        args.gif = gif_path(args.gif, "--gif")
+    run = Run.open(existing_dir(args.run, "DIR"))
     if args.seed is not None and args.seed not in run.seeds:
         raise UsageError(f"--seed {args.seed} is not in the run; its seeds are "
                          f"{list(run.seeds)}")
@@ -72,14 +89,16 @@ def _evaluate(args: argparse.Namespace, opened: tuple[Run, Any]) -> int:
         i = run.seeds.index(seed)
         print(f"{seed:>6}" + "".join(f"{_fmt(metrics[c][i], c):>12}" for c in COLUMNS))
     if len(shown) > 1:
-        ret = metrics["return"]
-        print(f"{'mean':>6}{ret.mean():>12.3f}  ± {ret.std(ddof=1):.3f} (std over seeds)")
-    if args.gif:
+        print(f"{'mean':>6}" + "".join(f"{metrics[c].mean():>12.3f}" for c in COLUMNS))
+        print(f"{'std':>6}" + "".join(f"{metrics[c].std(ddof=1):>12.3f}" for c in COLUMNS)
+              + "  (over seeds)")
+    print(COLUMN_NOTE)
+    if args.gif is not None:
         seed = shown[0]
         i = run.seeds.index(seed)
         one = {k: np.asarray(v)[i] for k, v in traj.items()}
         title = (f"{run.config.algo} seed {seed}, {done} episodes: "
-                 f"env return {float(metrics['env_return'][i]):.2f}")
+                 f"env_return {float(metrics['env_return'][i]):.2f}")
         path = write_episode_gif(trainer, one, args.gif, title)
         print(f"wrote {path}")
     return 0
@@ -91,7 +110,8 @@ def _fmt(v: Any, column: str) -> str:
 
 
 def write_episode_gif(trainer: Any, traj: dict[str, np.ndarray], path: str, title: str):
-    """Draw one evaluation episode (trajectory arrays of one seed) and write it as a GIF."""
+    """Draw one evaluation episode (trajectory arrays of one seed) with a legend and write it as
+    a GIF."""
     from hiddpg import render
 
     env, params = trainer.env, trainer.env_params
@@ -108,32 +128,16 @@ def write_episode_gif(trainer: Any, traj: dict[str, np.ndarray], path: str, titl
         goal = np.asarray(traj["goal"])[:n]
         if goal.shape[-1] == env.obs_dim != env.goal_space.dim:
             goal = goal[..., list(env.goal_space.indices)]
-        kwargs["goals"] = goal
+        kwargs.update(goals=goal, goal_label="learned goal")
         if "switch" in traj:
             kwargs["switches"] = np.asarray(traj["switch"])[:n].astype(bool)
-        frames = render.render_rollout(env, params, states, **kwargs)
     elif "skill" in traj:  # h-DDPG: the current skill, changes marked
-        frames = _skill_frames(render, env, params, states, np.asarray(traj["skill"])[:n],
-                               **kwargs)
-    else:
-        frames = render.render_rollout(env, params, states, **kwargs)
+        skill = np.asarray(traj["skill"])[:n]
+        flat = skill.reshape(len(skill), -1)
+        kwargs.update(switches=np.r_[True, np.any(flat[1:] != flat[:-1], axis=-1)],
+                      notes=[f"skill {s.tolist()}" for s in skill], switch_label="skill change")
+    frames = render.render_rollout(env, params, states, **kwargs)
     return render.write_gif(frames, path, fps=min(1.0 / env.dt, MAX_FPS))
-
-
-def _skill_frames(render, env, params, states, skill, *, actions, rewards, title, target):
-    """Frames with the current skill in the text and a mark where the skill changed."""
-    scene = render.Scene(env, params, target=target)
-    trail, marks, frames, ret = [], [], [], 0.0
-    for k, x in enumerate(states):
-        trail.append(scene.position(x))
-        if k > 0:
-            ret += float(rewards[k - 1])
-            if np.any(skill[k] != skill[k - 1]):
-                marks.append(trail[-1])
-        text = [title, f"step {k:3d}   return {ret:8.2f}   skill {np.asarray(skill[k]).tolist()}"]
-        overlay = render.Overlay(trail=list(trail), switch_points=list(marks), text=text)
-        frames.append(scene.frame(x, None if k == 0 else actions[k - 1], overlay))
-    return frames
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -22,8 +22,10 @@ action box by a box-QP). Defaults:
 ``--goals`` without ``--switch-times`` splits the horizon equally among the goals. The command
 prints iterations, convergence, cost, the final state, the task's own return for the actions and
 the cost after every iteration; ``--json`` writes states, actions and cost, ``--gif`` an
-animation with the goals drawn. Parsed with tyro; a bad value prints one line naming it and what
-is allowed, and exits with code 2 before anything is compiled.
+animation with the goals drawn, the ``env_return`` so far and a legend. ``--gif`` must name a
+file ending in ``.gif``; neither it nor ``--json`` may be an existing directory, and their
+missing parent directories are created. Parsed with tyro; a bad value prints one line naming it
+and what is allowed, and exits with code 2 before anything is compiled.
 
 The problem is built and checked by :mod:`hiddpg.commands.ilqr_problem`, solved and shown by
 :mod:`hiddpg.commands.ilqr_solution`; their names are re-exported here.
@@ -52,6 +54,7 @@ from hiddpg.commands.ilqr_problem import (
     resolve,
 )
 from hiddpg.commands.ilqr_solution import MAX_FPS, env_rewards, report, solve, to_json, write_gif
+from hiddpg.paths import gif_path, output_file
 
 __all__ = [
     "ARM_ACTION_WEIGHT", "MAX_FPS", "PROG", "PUCK_ACTION_WEIGHT", "Problem", "UsageError",
@@ -90,7 +93,8 @@ def ilqr(
         tyro.conf.UseAppendAction] = (),
     seed: Annotated[int, tyro.conf.arg(help="reset key (draws ArmReach's target)")] = 0,
     gif: Annotated[Path | None, _opt(
-        "FILE", "write the solution as an animated GIF with the goals drawn", "(optional)")
+        "FILE.gif", "write the solution as an animated GIF with the goals drawn (a name ending "
+        "in .gif)", "(optional)")
     ] = None,
     json_path: Annotated[Path | None, tyro.conf.arg(
         name="json", metavar="FILE", help="write states, actions, cost and its history as JSON",
@@ -99,6 +103,8 @@ def ilqr(
     """Solve TASK with iLQR on its own differentiable dynamics and print the solution."""
     from hiddpg.commands.envs import parse_overrides
 
+    gif = None if gif is None else gif_path(gif, "--gif")
+    json_path = None if json_path is None else output_file(json_path, "--json")
     try:
         sets = parse_overrides(overrides)
         problem = resolve(task, goals, switch_times, horizon, action_weight, sets, seed)

@@ -65,7 +65,7 @@ def report(problem: Problem, result: Any, rewards: np.ndarray, steps: int) -> st
         f"converged    {bool(result.converged)}",
         f"cost         {float(result.cost):.6g}",
         f"final state  {_fmt(result.states[-1])}",
-        f"env return   {rewards[:steps].sum():.4f} over {steps} steps"
+        f"env_return   {rewards[:steps].sum():.4f} over {steps} steps"
         + (" (the episode ended early)" if steps < problem.horizon else ""),
         "cost history (iteration: cost)",
         *(f"  {i:3d}: {c:.6g}" for i, c in enumerate(history)),
@@ -94,7 +94,8 @@ def to_json(problem: Problem, result: Any, rewards: np.ndarray, steps: int,
 
 
 def write_gif(problem: Problem, result: Any, rewards: np.ndarray, path: Path) -> tuple[Path, int]:
-    """Draw the solution with its goals (switch points marked); returns the path and frames."""
+    """Draw the solution with its goals (switch points marked), the task's ``env_return`` so far
+    and a legend; returns the path and the number of frames."""
     from hiddpg import render
 
     env = problem.env
@@ -102,5 +103,6 @@ def write_gif(problem: Problem, result: Any, rewards: np.ndarray, path: Path) ->
     frames = render.render_rollout(
         env, problem.params, np.asarray(result.states), np.asarray(result.actions), rewards,
         goals=problem.step_goals(), title=title, target=problem.target,
+        goal_label="tracked goal",
     )
     return render.write_gif(frames, path, fps=min(1.0 / env.dt, MAX_FPS)), len(frames)

@@ -71,16 +71,19 @@ def _draw_arm(ax, run: RunData, traj: Mapping[str, np.ndarray], i: int) -> list[
     angles = np.concatenate([traj["obs"][i][:1, :2], traj["next_obs"][i][:n, :2]])
     joints = np.asarray(fk(angles))  # (n + 1, 3, 2)
     colours = plt.get_cmap("winter")(np.linspace(0, 1, POSTURES))
-    for c, k in zip(colours, np.linspace(0, n, POSTURES).round().astype(int), strict=True):
-        ax.plot(joints[k, :, 0], joints[k, :, 1], "-o", color=c, lw=2, ms=3)
+    steps = np.linspace(0, n, POSTURES).round().astype(int)
+    for j, (c, k) in enumerate(zip(colours, steps, strict=True)):
+        ax.plot(joints[k, :, 0], joints[k, :, 1], "-o", color=c, lw=2, ms=3,
+                label=f"arm, {POSTURES} postures (blue: start, green: end)" if j == 0 else None)
     ax.plot(joints[:, 2, 0], joints[:, 2, 1], color="tab:cyan", lw=1, label="hand path")
     live = traj["alive"][i].astype(bool)
     goals = traj["goal"][i][np.flatnonzero(traj["switch"][i].astype(bool) & live)]
     goal_joints = np.asarray(fk(np.asarray(goals, np.float32)))
+    numbered = len(goal_joints) <= MAX_LABELS
     for g, gj in enumerate(goal_joints):
         ax.plot(gj[:, 0], gj[:, 1], "-", color="tab:red", lw=1.5, alpha=0.8,
-                label="goals" if g == 0 else None)
-        if len(goal_joints) <= MAX_LABELS:
+                label=("goals (numbered in order)" if numbered else "goals") if g == 0 else None)
+        if numbered:
             ax.annotate(str(g + 1), gj[2], color="tab:red", fontsize=9)
     target = np.asarray(fk(np.asarray(params.target, np.float32)[None]))[0]
     ax.plot(target[:, 0], target[:, 1], "--", color="0.4", label="target posture")
@@ -105,15 +108,16 @@ def fig6(ctx: Context) -> dict:
     goals = _draw_arm(left, run, final.traj, i)
     left.set_title(f"run {run.seeds[i]}, episode {final.episode}: "
                    f"{'success' if success[i] else 'no success'}, {len(goals)} goals")
-    episodes, values = run.series("eval_env_return" if run.has("eval_env_return")
-                                  else "eval_return")
+    column = "eval_env_return" if run.has("eval_env_return") else "eval_return"
+    episodes, values = run.series(column)
     mean, std = values.mean(axis=0), values.std(axis=0, ddof=1) if len(values) > 1 else 0
-    right.plot(episodes, mean, color="tab:blue", label=f"eval return, mean of {len(values)}")
-    right.fill_between(episodes, mean - std, mean + std, color="tab:blue", alpha=0.2, lw=0)
+    right.plot(episodes, mean, color="tab:blue", label=f"{column}: mean of {len(values)} runs")
+    right.fill_between(episodes, mean - std, mean + std, color="tab:blue", alpha=0.2, lw=0,
+                       label="± std over runs")
     pretrain = int(getattr(run.config.agent, "pretrain_episodes", 0))
     if pretrain:
         right.axvspan(0, pretrain, color="0.85", label="low-level pre-training")
-    right.set(xlabel="training episode", ylabel="evaluation return")
+    right.set(xlabel="training episode", ylabel=f"noise-free evaluation ({column})")
     twin = right.twinx()
     rate = [outcomes(s.traj, radius, horizon)[0].mean() for s in snaps]
     twin.plot([s.episode for s in snaps], rate, "s-", color="tab:green", ms=3,

@@ -37,6 +37,10 @@ ALPHA = 0.05
 COLOUR_LIMIT = 4.0
 """The tile colour scale saturates at ``|-log10 p| = 4`` (p = 1e-4)."""
 FIGURES = {"fig7": "PuckObstacle", "fig8": "ArmObstacle"}
+BAND_LABEL = "shaded: ± std over runs (in the line's colour)"
+"""The curves' legend entry of the bands."""
+TILE_LABEL = "-log10(p)·sign(t); red: A higher, blue: B higher"
+"""The tiles' colour bar (row ``A vs B``)."""
 
 
 def metric_of(run: RunData, metric: str = METRIC) -> str:
@@ -104,7 +108,10 @@ def compare(runs: Mapping[str, RunData], metric: str = METRIC, n_stages: int = N
 
 
 def plot_comparison(comp: Comparison, title: str):
-    """The Fig. 7/8 figure: curves (mean ± std) on top, tiles below."""
+    """The Fig. 7/8 figure: curves (mean ± std) on top, their legend naming each method and
+    the bands; tiles below, their colour bar naming the colours."""
+    from matplotlib.patches import Patch
+
     plt = pyplot()
     pairs = _pairs(comp)
     fig, (top, bottom) = plt.subplots(
@@ -112,11 +119,13 @@ def plot_comparison(comp: Comparison, title: str):
         gridspec_kw={"height_ratios": [3, max(1, 0.45 * len(pairs))]})
     for label, values in comp.curves.items():
         mean, std = values.mean(axis=0), values.std(axis=0, ddof=1) if len(values) > 1 else 0
-        (line,) = top.plot(comp.episodes, mean, label=f"{label} (n={len(values)})")
+        (line,) = top.plot(comp.episodes, mean, label=f"{label}: mean of {len(values)} runs")
         top.fill_between(comp.episodes, mean - std, mean + std, color=line.get_color(),
                          alpha=0.2, linewidth=0)
     top.set(xlabel="training episode", ylabel=f"episode return ({comp.metric})", title=title)
-    top.legend(loc="lower right", fontsize=8)
+    handles, _ = top.get_legend_handles_labels()
+    band = Patch(color="0.5", alpha=0.3, linewidth=0, label=BAND_LABEL)
+    top.legend(handles=[*handles, band], loc="lower right", fontsize=8)
     if comp.welch is None or not pairs:
         bottom.text(0.5, 0.5, "t-tests need at least two methods with two runs each",
                     ha="center", va="center", transform=bottom.transAxes)
@@ -147,11 +156,12 @@ def _draw_tiles(ax, comp: Comparison, pairs: list[tuple[str, str]]) -> None:
             ax.text(s, r, f"{welch.p[i, j, s]:.2g}{mark}", ha="center", va="center", fontsize=6,
                     color=ink)
     ax.set_yticks(range(len(pairs)), [f"{a} vs {b}" for a, b in pairs], fontsize=7)
+    ax.set_ylabel("A vs B", fontsize=7)
     ax.set_xticks(range(len(comp.bounds)), [f"{lo}-{hi}" for lo, hi in comp.bounds],
                   fontsize=6, rotation=45)
     ax.set_xlabel("training stage (episodes); tile text: p, * Holm-adjusted p < 0.05")
     bar = ax.figure.colorbar(image, ax=ax, fraction=0.03, pad=0.01)
-    bar.set_label("-log10(p)·sign(t)", fontsize=7)
+    bar.set_label(TILE_LABEL, fontsize=7)
 
 
 def summary_numbers(comp: Comparison) -> dict:

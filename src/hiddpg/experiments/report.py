@@ -125,10 +125,11 @@ def pyplot() -> Any:
 
 
 def save_figure(fig: Any, stem: Path) -> list[Path]:
-    """Write ``fig`` as ``stem.png`` and ``stem.pdf``; close it; return the two paths."""
+    """Write ``fig`` as ``stem.png`` and ``stem.pdf`` (the suffixes appended to the whole name,
+    so ``a.v2`` gives ``a.v2.png``); close it; return the two paths."""
     plt = pyplot()
     stem.parent.mkdir(parents=True, exist_ok=True)
-    paths = [stem.with_suffix(".png"), stem.with_suffix(".pdf")]
+    paths = [stem.with_name(stem.name + ".png"), stem.with_name(stem.name + ".pdf")]
     for p in paths:
         fig.savefig(p, dpi=150, bbox_inches="tight")
     plt.close(fig)

@@ -188,10 +188,11 @@ def fig4(ctx: Context) -> dict:
                       k == len(snaps) - 1 else 0.8)
         left.plot(ref[:, 0], ref[:, 1], color="tab:blue", lw=2, label="reference")
         left.plot([], [], color="tab:red", label=f"generated (run {run.seeds[i]}, episodes "
-                  f"{snaps[0].episode}-{final.episode})")
+                  f"{snaps[0].episode}-{final.episode}; fainter: earlier)")
         left.set(title=f"{task}: trajectories", xlabel="x", ylabel="y", aspect="equal")
         left.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2))
-        right.plot(ref[:, 0], ref[:, 1], color="tab:blue", lw=0.8, alpha=0.4)
+        right.plot(ref[:, 0], ref[:, 1], color="tab:blue", lw=0.8, alpha=0.4,
+                   label="reference trajectory")
         for j in range(final.traj["goal"].shape[0]):
             mine, _ = learned_goals(final.traj, j)
             right.scatter(mine[:, 0], mine[:, 1], s=60, color="tab:red", alpha=0.5,
