@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from hiddpg import runner, runs
+from hiddpg import runner, runs, summary
 from hiddpg.presets import make_config
 from hiddpg.reporter import Reporter
 from hiddpg.runner import (
@@ -20,7 +20,6 @@ from hiddpg.runner import (
     open_for_resume,
     parse_seeds,
     prepare_new,
-    result_line,
     train_run,
 )
 from hiddpg.runs import make_trainer
@@ -82,10 +81,12 @@ def test_a_run_trained_to_its_end(reference):
     assert [int(r["episode"]) for r in rows if r["eval_return"] and r["seed"] == "0"] == [10, 20]
     _, done = run.load_checkpoint(make_trainer(CONFIG))
     assert done == 20 == run.checkpoint_episodes()
-    finals = [float(r["eval_return"]) for r in rows if r["episode"] == "20"]
-    mean, std = np.mean(finals), np.std(finals, ddof=1)
-    assert result_line(run, 12.34) == (f"final eval return {mean:.3f} ± {std:.3f} over 2 seeds"
-                                       f" | wall 12.3 s | run {path}")
+    finals = [float(r["eval_env_return"]) for r in rows if r["episode"] == "20"]
+    line = summary.result_line(run, 12.34)
+    mean, std = summary.number(np.mean(finals)), summary.number(np.std(finals, ddof=1))
+    assert line.startswith(f"final evaluation: environment return {mean} ± {std} "
+                           "(mean ± std over 2 seeds)")
+    assert line.endswith(f" | wall 12.3 s | run {path}")
 
 
 def test_interrupted_after_first_chunk_then_resumed_equals_uninterrupted(reference, tmp_path):

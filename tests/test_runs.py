@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from hiddpg import runs
+from hiddpg import run_check, runs
 from hiddpg.configs import from_dict, to_dict
 from hiddpg.presets import make_config
 from hiddpg.train import RunState
@@ -160,7 +160,7 @@ def test_checkpoint_round_trip(tmp_path):
     for a, b in zip(jax_leaves(loaded), jax_leaves(state), strict=True):
         np.testing.assert_array_equal(a, b)
     assert sorted(os.listdir(run.path)) == [runs.CHECKPOINT_FILE, runs.CONFIG_FILE,
-                                            runs.PROGRESS_FILE]
+                                            runs.PROGRESS_FILE, "writer.lock"]
     run.save_checkpoint(state.replace(episode=jnp.array([10, 20], jnp.int32)))
     with pytest.raises(ValueError, match="different episodes"):
         run.load_checkpoint(trainer)
@@ -174,12 +174,12 @@ def jax_leaves(tree):
 
 def test_find_non_finite_reports_earliest_loss():
     train, _ = _chunk(1, 10)
-    assert runs.find_non_finite(train, SEEDS) is None
+    assert run_check.find_non_finite(train, SEEDS) is None
     train["return"][0, 0] = np.nan  # not a loss metric: ignored
     train["actor_loss"] = np.zeros((2, 10), np.float32)
     train["actor_loss"][1, 6] = np.inf
     train["critic_loss"][0, 8] = np.nan
-    assert runs.find_non_finite(train, SEEDS) == ("actor_loss", 5, 7)
+    assert run_check.find_non_finite(train, SEEDS) == ("actor_loss", 5, 7)
 
 
 def test_tensorboard_events_and_missing_tensorboardx(tmp_path, monkeypatch, capsys):

@@ -72,7 +72,7 @@ def test_same_seed_gives_identical_files(reference, tmp_path, capsys):
     assert train(tmp_path, "again") == 0
     assert files(tmp_path / "again") == files(reference)
     out = capsys.readouterr().out
-    assert out.startswith("final eval return ") and f"run {tmp_path / 'again'}" in out
+    assert out.startswith("final evaluation: environment return ") and f"run {tmp_path / 'again'}" in out
 
 
 def test_resume_after_crash_equals_uninterrupted(reference, tmp_path):
@@ -114,7 +114,7 @@ def test_resume_of_finished_run(reference, tmp_path, capsys):
     shutil.copytree(reference, tmp_path / "d")
     assert train_cmd.main(["--resume", str(tmp_path / "d")]) == 0
     assert files(tmp_path / "d") == files(reference)
-    assert capsys.readouterr().out.startswith("final eval return ")
+    assert capsys.readouterr().out.startswith("final evaluation: environment return ")
     assert train_cmd.main(["--resume", str(tmp_path / "d"), "--episodes", "15"]) == 2
     assert "--episodes 15 is fewer than the 20 episodes" in capsys.readouterr().err
     assert train_cmd.main(["--resume", str(tmp_path / "d"), "--set", "episodes=5"]) == 2
@@ -179,7 +179,7 @@ def test_bad_input_exits_2_before_anything(tmp_path, capsys, extra, needle):
     (["dqn", TASK], "dqn"),
     (["hi-ddpg", TASK, "--set", "agent.duration_min=50"], "duration_min"),
     ([], "ALGO and TASK"),
-    (["--resume", "/nonexistent/run"], "not a run directory"),
+    (["--resume", "/nonexistent/run"], "--resume '/nonexistent/run' does not exist"),
 ])
 def test_bad_command_exits_2(tmp_path, capsys, argv, needle):
     assert train_cmd.main([*argv, "--out", str(tmp_path)]) == 2
@@ -257,8 +257,9 @@ def test_eval_replays_the_final_policy(reference, tmp_path, capsys):
 
 
 def test_sigterm_marks_the_run_interrupted_and_it_resumes(tmp_path):
-    """``kill`` (SIGTERM) of a real ``hiddpg train`` process: exit 130, the run says
-    ``interrupted`` at its last checkpoint and how to resume, and resuming finishes it."""
+    """``kill`` (SIGTERM) of a real ``hiddpg train`` process: exit 143, the run says
+    ``interrupted`` by SIGTERM at its last checkpoint and how to resume, and resuming finishes
+    it (signals at many moments: tests/test_faults.py)."""
     import subprocess
     import sys
     import time
@@ -275,10 +276,11 @@ def test_sigterm_marks_the_run_interrupted_and_it_resumes(tmp_path):
         time.sleep(0.2)
     proc.terminate()
     _, err = proc.communicate(timeout=120)
-    assert proc.returncode == 130, err
-    assert f"hiddpg train --resume {run_dir}" in err
+    assert proc.returncode == 143, err
+    assert f"stopped by SIGTERM; continue with: hiddpg train --resume {run_dir}" in err
     progress = runs.Run.open(run_dir).progress()
     assert progress["status"] == "interrupted" and progress["episodes"] >= 10
+    assert progress["signal"] == "SIGTERM"
     assert progress["episodes"] % 10 == 0  # a chunk boundary: the last checkpoint
     done = progress["episodes"]
     assert train_cmd.main(["--resume", str(run_dir), "--episodes", str(done + 10)]) == 0

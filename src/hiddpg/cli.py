@@ -10,7 +10,6 @@ To add a command, add one line to :data:`COMMANDS`.
 from __future__ import annotations
 
 import importlib
-import signal
 import sys
 from collections.abc import Sequence
 
@@ -47,18 +46,14 @@ def _load(target: str):
     return getattr(importlib.import_module(module), func)
 
 
-def _terminate(signum: int, frame: object) -> None:
-    """SIGTERM (``kill``, a scheduler's pre-emption) is handled like Ctrl-C: a training run
-    records that it was interrupted at its last checkpoint and says how to resume."""
-    del signum, frame
-    raise KeyboardInterrupt
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``hiddpg`` script; returns the exit code (0 on success, 2 on usage
     errors). Called with ``argv=None`` it reads ``sys.argv[1:]`` and exits the process."""
     if argv is None:
+        from hiddpg import stopping
         from hiddpg.devices import request_cpu_devices, seeds_on_device
+
+        stopping.install()  # SIGTERM / Ctrl-C: stop at once, runs marked (hiddpg.stopping)
 
         try:  # one CPU device per core, before JAX starts (hiddpg.devices)
             request_cpu_devices()
@@ -66,8 +61,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         except ValueError as err:
             print(f"hiddpg: error: {err}", file=sys.stderr)
             sys.exit(2)
-        signal.signal(signal.SIGTERM, _terminate)
-        sys.exit(main(sys.argv[1:]))
+        code = main(sys.argv[1:])
+        sys.stdout.flush()
+        sys.exit(code)
     args = list(argv)
     if not args or args[0] in ("-h", "--help", "help"):
         print(_usage())

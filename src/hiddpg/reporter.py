@@ -29,6 +29,9 @@ class Reporter:
     def plan(self, text: str) -> None:
         """What the run will do (:func:`hiddpg.plan.describe`), before it starts."""
 
+    def note(self, text: str) -> None:
+        """Something opening the run recovered or changed (``Run.notes``)."""
+
     def resumed(self, path: Path, episodes: int, dropped: int) -> None:
         """A run is continued at ``episodes``; ``dropped`` metrics rows past its checkpoint
         were removed."""
@@ -116,6 +119,9 @@ class ConsoleReporter(Reporter):
 
     def plan(self, text: str) -> None:
         self._say(text)
+
+    def note(self, text: str) -> None:
+        self._say(f"note: {text}")
 
     def resumed(self, path: Path, episodes: int, dropped: int) -> None:
         self._say(f"resuming {path} at episode {episodes}"

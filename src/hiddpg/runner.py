@@ -22,6 +22,7 @@ import dataclasses
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import NamedTuple
 
@@ -29,7 +30,10 @@ import numpy as np
 
 from hiddpg.configs import TrainConfig
 from hiddpg.reporter import Reporter
-from hiddpg.runs import Run, find_non_finite, make_trainer
+from hiddpg.run_check import apply_plan, find_non_finite, plan_resume
+from hiddpg.run_files import RunFileError
+from hiddpg.runs import Run, make_trainer
+from hiddpg.stopping import on_stop
 from hiddpg.train import RunState, Trainer
 
 FINISHED, FAILED, INTERRUPTED = "finished", "failed", "interrupted"
@@ -101,21 +105,38 @@ def prepare_new(config: TrainConfig, seeds: Sequence[int], path: str | Path) -> 
 
 
 def open_for_resume(path: str | Path, episodes: int | None = None) -> ReadyRun:
-    """Open the run directory ``path`` to continue from its last checkpoint, to ``episodes``
-    in all if given (the run's own budget otherwise); nothing is written or compiled.
+    """Open the run directory ``path`` to continue from its last good checkpoint, to
+    ``episodes`` in all if given (the run's own budget otherwise). Nothing is compiled.
 
-    Raises ``FileNotFoundError`` if ``path`` is not a run directory and ``ValueError`` if
-    ``episodes`` is fewer than those done or the checkpoint is not at a chunk boundary.
+    The caller becomes the run's only writer (its lock is held until ``run.close()``). Every
+    file is checked first (:func:`hiddpg.run_check.plan_resume`); only if the run can be
+    continued is anything changed: a damaged checkpoint is moved aside and the previous one
+    restored, a damaged progress.json rewritten, leftover temporary files removed. What was
+    recovered is in ``run.notes``.
+
+    Raises ``FileNotFoundError`` if ``path`` is not a run directory,
+    :class:`~hiddpg.run_files.RunLockedError` if another process trains it,
+    :class:`~hiddpg.run_files.RunFileError` (a ``ValueError``) naming a file that cannot be
+    trusted, and ``ValueError`` if ``episodes`` is fewer than those done or the checkpoint
+    is not at a chunk boundary.
     """
     run = Run.open(path)
-    config, done = run.config, run.checkpoint_episodes()
-    if episodes is not None:
-        if episodes < done:
-            raise ValueError(f"episodes {episodes} is fewer than the {done} episodes {path} "
-                             "has done")
-        config = dataclasses.replace(config, episodes=episodes)
-    trainer = make_trainer(config)
-    trainer.chunk_sizes(done)  # raises ValueError unless done is a chunk boundary
+    run.acquire()
+    try:
+        plan = plan_resume(run.checkpoint_path, run.previous_checkpoint_path, run.metrics_path,
+                           run.seeds, run.state_shapes(make_trainer(run.config)))
+        config, done = run.config, plan.episodes
+        if episodes is not None:
+            if episodes < done:
+                raise ValueError(f"episodes {episodes} is fewer than the {done} episodes "
+                                 f"{path} has done")
+            config = dataclasses.replace(config, episodes=episodes)
+        trainer = make_trainer(config)
+        trainer.chunk_sizes(done)  # raises ValueError unless done is a chunk boundary
+        run.notes += apply_plan(run, plan)
+    except BaseException:
+        run.release()
+        raise
     return ReadyRun(run, trainer, done)
 
 
@@ -124,26 +145,50 @@ def train_run(run: Run, trainer: Trainer, *, on_chunk: OnChunk | None = None,
     """Train ``run`` from its last checkpoint (or its untrained state, checkpointed first) to
     ``trainer.config.episodes`` and mark how it ended in progress.json.
 
-    ``on_chunk(run, episodes)`` is called after each chunk's checkpoint; ``reporter`` (default:
-    silent) hears the progress. A non-finite loss returns status ``failed``; a
-    ``KeyboardInterrupt`` (Ctrl-C, SIGTERM under the ``hiddpg`` command) returns
-    ``interrupted``; any other exception marks the run ``failed`` and propagates. Either way
+    The process becomes the run's only writer first (a
+    :class:`~hiddpg.run_files.RunLockedError` if another one is). ``on_chunk(run, episodes)``
+    is called after each chunk's checkpoint; ``reporter`` (default: silent) hears the
+    progress. A non-finite loss returns status ``failed``. A ``KeyboardInterrupt`` (Ctrl-C in
+    library use) returns ``interrupted``; under the ``hiddpg`` command a signal stops the
+    process through :mod:`hiddpg.stopping`, which marks the run ``interrupted`` with the
+    signal's name. Any other exception marks the run ``failed`` and propagates. Either way
     the run stays resumable from its last checkpoint.
     """
     reporter = reporter if reporter is not None else Reporter()
+    run.acquire()
     try:
-        state, done, wall = _start(run, trainer, reporter)
-        return _train(run, trainer, state, done, wall, on_chunk, reporter)
+        with on_stop(partial(_stopped, run, reporter)):
+            state, done, wall = _start(run, trainer, reporter)
+            return _train(run, trainer, state, done, wall, on_chunk, reporter)
     except BaseException as err:  # keep the last checkpoint's progress, mark the run
-        last = run.progress()
-        stopped = isinstance(err, KeyboardInterrupt)
-        run.write_progress(last["episodes"], last["wall_time"],
-                           INTERRUPTED if stopped else FAILED, error=repr(err))
-        if stopped:
-            return RunResult(INTERRUPTED, last["episodes"], last["wall_time"])
+        episodes, wall = _last(run)
+        if isinstance(err, KeyboardInterrupt):
+            run.write_progress(episodes, wall, INTERRUPTED, signal="SIGINT",
+                               error="KeyboardInterrupt")
+            return RunResult(INTERRUPTED, episodes, wall)
+        run.write_progress(episodes, wall, FAILED, error=repr(err))
         raise
     finally:
         run.close()
+
+
+def _last(run: Run) -> tuple[int, float]:
+    """Episodes and wall time of the last checkpoint, as progress.json says."""
+    try:
+        last = run.progress()
+        return int(last["episodes"]), float(last["wall_time"])
+    except (RunFileError, ValueError, TypeError):
+        return run.checkpoint_episodes(), 0.0
+
+
+def _stopped(run: Run, reporter: Reporter, signal_name: str) -> None:
+    """A signal stops the process (:mod:`hiddpg.stopping`): mark the run interrupted at its
+    last checkpoint and give its lock up."""
+    reporter.close()
+    episodes, wall = _last(run)
+    run.write_progress(episodes, wall, INTERRUPTED, signal=signal_name,
+                       error=f"stopped by {signal_name}")
+    run.release()
 
 
 def _start(run: Run, trainer: Trainer, reporter: Reporter) -> tuple[RunState, int, float]:
@@ -160,7 +205,10 @@ def _start(run: Run, trainer: Trainer, reporter: Reporter) -> tuple[RunState, in
     dropped = run.truncate_metrics(done)
     if resumed:
         reporter.resumed(run.path, done, dropped)
-    return state, done, float(run.progress().get("wall_time", 0.0))
+    for note in run.notes:
+        reporter.note(note)
+    run.notes = []
+    return state, done, _last(run)[1]
 
 
 def _train(run: Run, trainer: Trainer, state: RunState, done: int, wall: float,
@@ -201,14 +249,3 @@ def _fail(run: Run, done: int, wall: float, metric: str, seed: int, episode: int
            f"Last good checkpoint (episode {done}): {run.checkpoint_path}")
     run.write_progress(done, wall, FAILED, error=msg)
     return RunResult(FAILED, done, wall, msg)
-
-
-def result_line(run: Run, wall: float) -> str:
-    """``final eval return M ± S over N seeds | wall T s | run DIR`` (S: sample std)."""
-    finals = np.array(list(run.final_eval().values()), dtype=np.float64)
-    if finals.size:
-        std = finals.std(ddof=1) if finals.size > 1 else 0.0
-        score = f"final eval return {finals.mean():.3f} ± {std:.3f} over {finals.size} seeds"
-    else:
-        score = "no evaluation recorded"
-    return f"{score} | wall {wall:.1f} s | run {run.path}"

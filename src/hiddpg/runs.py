@@ -2,19 +2,22 @@
 
 A run lives in ``runs/<name>/`` (name default ``<algo>-<task>-<timestamp>``)::
 
-    config.json         the TrainConfig (configs.to_dict), the seeds, hiddpg/jax versions,
-                        and a user's task registration (to register it again on resume)
-    metrics.csv         one row per seed per training episode (see METRIC_COLUMNS)
-    checkpoint.msgpack  the whole vmapped RunState (flax msgpack), rewritten after every chunk
-    progress.json       episodes done, wall time, status: running / finished / failed /
-                        interrupted (Ctrl-C or SIGTERM; resumable like a failed run)
-    tb/seed_<s>/        TensorBoard event files (only if tensorboardX is installed)
+    config.json              the TrainConfig (configs.to_dict), the seeds, hiddpg/jax versions,
+                             and a user's task registration (to register it again on resume)
+    metrics.csv              one row per seed per training episode (see METRIC_COLUMNS)
+    checkpoint.msgpack       the whole vmapped RunState (flax msgpack), after every chunk
+    checkpoint.prev.msgpack  the checkpoint before it, kept in case the last one is damaged
+    progress.json            episodes done, wall time, status: running / finished / failed /
+                             interrupted (Ctrl-C or SIGTERM, with the signal's name)
+    writer.lock              held by the one process training the run (its pid, host, since)
+    tb/seed_<s>/             TensorBoard event files (only if tensorboardX is installed)
 
-Checkpoint and progress are written atomically (temporary file in the same directory, fsync,
-``os.replace``), so a crash leaves the previous complete file. Metrics rows are appended before
-the checkpoint is written; rows past the checkpoint's episode count (a crash in between) are
-dropped by :meth:`Run.truncate_metrics` on resume, so a resumed run writes no row twice.
-This module is shell: it does I/O and calls the core only through :class:`hiddpg.train.Trainer`.
+Checkpoint and progress are written atomically (:func:`hiddpg.run_files.atomic_write`), so a
+crash leaves the previous complete file. Metrics rows are appended before the checkpoint is
+written; rows past the checkpoint's episode count (a crash in between) are dropped by
+:meth:`Run.truncate_metrics` on resume, so a resumed run writes no row twice. Before a run
+is continued every file is checked (:mod:`hiddpg.run_check`). This module is shell: it does
+I/O and calls the core only through :class:`hiddpg.train.Trainer`.
 """
 
 from __future__ import annotations
@@ -37,14 +40,27 @@ from flax import serialization
 
 from hiddpg.configs import TrainConfig, from_dict, to_dict
 from hiddpg.envs.registry import BUILTIN_TASKS, TASKS, restore_task
+from hiddpg.run_check import (
+    CONFIG_REMEDY,
+    load_state,
+    raw_episodes,
+    read_meta,
+    read_raw,
+    scan_metrics,
+)
+from hiddpg.run_files import FILE_MODE as FILE_MODE  # re-exported for run-file writers
+from hiddpg.run_files import LOCK_FILE, RunFileError, WriterLock, atomic_write
+from hiddpg.run_tb import TensorBoardLog
+from hiddpg.stopping import writing
 from hiddpg.train import RunState, Trainer, seed_keys
+from hiddpg.train import make_trainer as make_trainer  # re-exported: the runs' trainers
 
 CONFIG_FILE = "config.json"
 METRICS_FILE = "metrics.csv"
 CHECKPOINT_FILE = "checkpoint.msgpack"
+PREVIOUS_CHECKPOINT_FILE = "checkpoint.prev.msgpack"
 PROGRESS_FILE = "progress.json"
 TB_DIR = "tb"
-FILE_MODE = 0o644
 #: the fixed leading columns of metrics.csv; sorted extra metrics follow.
 METRIC_COLUMNS = ("seed", "episode", "env_steps", "return", "env_return", "length", "switches",
                   "eval_return")
@@ -55,39 +71,8 @@ def default_name(algo: str, task: str) -> str:
     return f"{algo}-{task}-{time.strftime('%Y%m%d-%H%M%S')}"
 
 
-def atomic_write(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` via a temporary file in the same directory, fsync, replace."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            os.fchmod(f.fileno(), FILE_MODE)
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def _json_bytes(obj: Any) -> bytes:
     return (json.dumps(obj, indent=2) + "\n").encode()
-
-
-_TRAINERS: dict[TrainConfig, Trainer] = {}
-
-
-def make_trainer(config: TrainConfig) -> Trainer:
-    """A :class:`Trainer` for ``config``, shared by equal configs in this process so that its
-    jitted functions compile once (the jit cache is keyed by the trainer object)."""
-    try:
-        hash(config)
-    except TypeError:  # an unhashable env override value
-        return Trainer(config)
-    if config not in _TRAINERS:
-        _TRAINERS[config] = Trainer(config)
-    return _TRAINERS[config]
 
 
 def _cell(value: Any) -> str:
@@ -110,45 +95,87 @@ class Run:
     config: TrainConfig
     seeds: tuple[int, ...]
     header: list[str] | None = None
+    lock: WriterLock | None = None
+    notes: list[str] = field(default_factory=list)
+    """What opening the run recovered (:func:`hiddpg.runner.open_for_resume`), to report."""
     _steps: dict[int, int] = field(default_factory=dict)
-    _tb: dict[int, Any] | None = None
+    _tb: TensorBoardLog | None = None
 
     # -- creating and opening -----------------------------------------------------------------
     @classmethod
     def create(cls, path: str | Path, config: TrainConfig, seeds: list[int] | tuple[int, ...]
                ) -> Run:
-        """Make a new run directory (it must not exist yet) and write config.json."""
+        """Make a new run directory (it must not exist yet) holding config.json and
+        progress.json, atomically: it is written under a hidden temporary name and renamed,
+        so a crash never leaves a half-made run. The returned run holds its writer lock."""
         import hiddpg
 
         path = Path(path)
-        path.mkdir(parents=True, exist_ok=False)
+        if path.exists():
+            raise FileExistsError(f"run directory {path} exists")
+        path.parent.mkdir(parents=True, exist_ok=True)
         meta = {"config": to_dict(config), "seeds": [int(s) for s in seeds],
                 "versions": {"hiddpg": hiddpg.__version__, "jax": jax.__version__,
                              "python": sys.version.split()[0]},
                 "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
         if config.task not in BUILTIN_TASKS and config.task in TASKS:  # a user's task
             meta["task"] = TASKS[config.task].declaration()
-        atomic_write(path / CONFIG_FILE, _json_bytes(meta))
-        run = cls(path, config, tuple(int(s) for s in seeds))
-        run.write_progress(0, 0.0, "running")
+        with writing():
+            tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.",
+                                        suffix=".creating"))
+            lock = WriterLock(tmp)
+            lock.acquire()
+            run = cls(tmp, config, tuple(int(s) for s in seeds), lock=lock)
+            atomic_write(tmp / CONFIG_FILE, _json_bytes(meta))
+            run.write_progress(0, 0.0, "running")
+            os.chmod(tmp, 0o755)
+            os.rename(tmp, path)
+            run.path, lock.path = path, path / LOCK_FILE
         return run
 
     @classmethod
     def open(cls, path: str | Path) -> Run:
-        """Open an existing run directory (config.json and, if present, metrics.csv header)."""
+        """Open an existing run directory: config.json checked and parsed (a
+        :class:`RunFileError` names what is wrong), the metrics.csv header read if present."""
         path = Path(path)
+        if not path.is_dir():
+            raise FileNotFoundError(f"{path} is not a run directory (no such directory)")
         if not (path / CONFIG_FILE).is_file():
             raise FileNotFoundError(f"{path} is not a run directory (no {CONFIG_FILE})")
-        meta = json.loads((path / CONFIG_FILE).read_text())
+        meta = read_meta(path / CONFIG_FILE)
         try:  # a user's task is registered again; if that fails, using it says it is unknown
             restore_task(meta.get("task"))
         except ValueError:
             pass
-        run = cls(path, from_dict(meta["config"]), tuple(meta["seeds"]))
+        try:
+            config = from_dict(meta["config"])
+            seeds = tuple(int(s) for s in meta["seeds"])
+            if not isinstance(config, TrainConfig):
+                raise TypeError(f"'config' is a {type(config).__name__}, not a TrainConfig")
+        except (ValueError, TypeError, KeyError) as err:
+            raise RunFileError(path / CONFIG_FILE, f"does not hold a valid run config ({err})",
+                               CONFIG_REMEDY) from None
+        run = cls(path, config, seeds)
         if (path / METRICS_FILE).is_file():
             with open(path / METRICS_FILE, newline="") as f:
                 run.header = next(csv.reader(f), None)
         return run
+
+    def acquire(self) -> None:
+        """Become the run directory's only writer (:class:`hiddpg.run_files.WriterLock`);
+        raises :class:`hiddpg.run_files.RunLockedError` naming a live holder."""
+        if self.lock is None:
+            self.lock = WriterLock(self.path)
+        if self.lock.held:
+            return
+        self.lock.acquire()
+        if self.lock.took_over:
+            self.notes.append(f"took over the writer lock left by {self.lock.took_over}, "
+                              "which has ended")
+
+    def release(self) -> None:
+        if self.lock is not None:
+            self.lock.release()
 
     def update_config(self, config: TrainConfig) -> None:
         """Rewrite config.json with a changed config (``--resume --episodes N``)."""
@@ -164,39 +191,58 @@ class Run:
         atomic_write(self.path / PROGRESS_FILE, _json_bytes(data))
 
     def progress(self) -> dict[str, Any]:
-        return json.loads((self.path / PROGRESS_FILE).read_text())
+        """progress.json; :class:`RunFileError` if it is missing or not valid JSON."""
+        path = self.path / PROGRESS_FILE
+        try:
+            data = json.loads(path.read_text())
+            if isinstance(data, dict) and {"episodes", "wall_time", "status"} <= set(data):
+                return data
+            problem = "lacks episodes, wall_time or status"
+        except FileNotFoundError:
+            problem = "is missing"
+        except (ValueError, UnicodeDecodeError) as err:
+            problem = f"is not valid JSON ({err})"
+        raise RunFileError(path, problem, "resuming the run rewrites it from the checkpoint")
 
     # -- checkpoints --------------------------------------------------------------------------
     @property
     def checkpoint_path(self) -> Path:
         return self.path / CHECKPOINT_FILE
 
+    @property
+    def previous_checkpoint_path(self) -> Path:
+        return self.path / PREVIOUS_CHECKPOINT_FILE
+
     def save_checkpoint(self, state: RunState) -> None:
-        """Serialise the vmapped run state (flax msgpack), atomically."""
-        atomic_write(self.checkpoint_path, serialization.to_bytes(jax.device_get(state)))
+        """Serialise the vmapped run state (flax msgpack), atomically, keeping the checkpoint
+        it replaces as checkpoint.prev.msgpack."""
+        data = serialization.to_bytes(jax.device_get(state))
+        with writing():
+            if self.checkpoint_path.is_file():
+                os.replace(self.checkpoint_path, self.previous_checkpoint_path)
+            atomic_write(self.checkpoint_path, data)
 
     def initial_state(self, trainer: Trainer) -> RunState:
         return trainer.init_seeds(seed_keys(self.seeds))
 
+    def state_shapes(self, trainer: Trainer) -> Any:
+        """The structure of this run's state (``jax.eval_shape``; nothing is compiled)."""
+        return jax.eval_shape(trainer.init_seeds, seed_keys(self.seeds))
+
     def checkpoint_episodes(self) -> int:
-        """Episodes done in the checkpoint, read without building a trainer (0 if none)."""
+        """Episodes done in the checkpoint, read without building a trainer (0 if none);
+        :class:`RunFileError` if it is not a checkpoint."""
         if not self.checkpoint_path.is_file():
             return 0
-        raw = serialization.msgpack_restore(self.checkpoint_path.read_bytes())
-        return int(np.asarray(raw["episode"]).flat[0])
+        return raw_episodes(read_raw(self.checkpoint_path))
 
     def load_checkpoint(self, trainer: Trainer) -> tuple[RunState, int]:
-        """The checkpointed state (structure from ``init_seeds``) and its episodes done; a
-        fresh state and 0 if no checkpoint was written yet."""
-        template = self.initial_state(trainer)
+        """The checkpointed state, checked against ``trainer``'s state structure, and its
+        episodes done; a fresh state and 0 if no checkpoint was written yet. Raises
+        :class:`RunFileError` naming the file and what is wrong."""
         if not self.checkpoint_path.is_file():
-            return template, 0
-        state = serialization.from_bytes(template, self.checkpoint_path.read_bytes())
-        state = jax.tree.map(jax.numpy.asarray, state)
-        done = np.asarray(state.episode)
-        if not (done == done.flat[0]).all():
-            raise ValueError(f"checkpoint seeds are at different episodes: {done.tolist()}")
-        return state, int(done.flat[0])
+            return self.initial_state(trainer), 0
+        return load_state(self.checkpoint_path, self.state_shapes(trainer))
 
     # -- metrics ------------------------------------------------------------------------------
     @property
@@ -250,7 +296,7 @@ class Run:
         for e in range(n_eps):
             for i, seed in enumerate(self.seeds[:n_seeds]):
                 writer.writerow(self._row(seed, i, e, train, evals))
-        with open(self.metrics_path, "a", newline="") as f:
+        with writing(), open(self.metrics_path, "a", newline="") as f:
             f.write(buf.getvalue())
             f.flush()
             os.fsync(f.fileno())
@@ -268,8 +314,11 @@ class Run:
         return [_cell(values[c]) if c in values else "" for c in self.header]
 
     def read_metrics(self) -> list[dict[str, str]]:
+        """metrics.csv's rows, after :func:`hiddpg.run_check.scan_metrics` found every seed's
+        episodes complete and in order (a :class:`RunFileError` otherwise)."""
         if not self.metrics_path.is_file():
             return []
+        scan_metrics(self.metrics_path, self.seeds)
         with open(self.metrics_path, newline="") as f:
             return list(csv.DictReader(f))
 
@@ -284,50 +333,16 @@ class Run:
     # -- TensorBoard --------------------------------------------------------------------------
     def write_tensorboard(self, train: dict[str, np.ndarray], evals: dict[str, np.ndarray]
                           ) -> None:
-        """Scalars under ``train/<key>`` and ``eval/<key>`` in ``tb/seed_<s>/`` (skipped, with
-        one warning, if tensorboardX is not installed)."""
+        """Scalars under ``train/<key>`` and ``eval/<key>`` in ``tb/seed_<s>/``
+        (:class:`hiddpg.run_tb.TensorBoardLog`)."""
         if self._tb is None:
-            self._tb = _open_writers(self.path / TB_DIR, self.seeds)
-        if not self._tb:
-            return
-        for i, seed in enumerate(self.seeds):
-            w = self._tb[seed]
-            for e, ep in enumerate(np.asarray(train["episode"][i])):
-                for k, v in train.items():
-                    if k != "episode":
-                        w.add_scalar(f"train/{k}", float(np.asarray(v)[i, e]), int(ep))
-            for e, ep in enumerate(np.asarray(evals["episode"][i])):
-                for k, v in evals.items():
-                    if k != "episode":
-                        w.add_scalar(f"eval/{k}", float(np.asarray(v)[i, e]), int(ep))
-            w.flush()
+            self._tb = TensorBoardLog(self.path / TB_DIR, self.seeds)
+        with writing():
+            self._tb.write(train, evals)
 
     def close(self) -> None:
-        for w in (self._tb or {}).values():
-            w.close()
+        """Close the TensorBoard writers and give up the writer lock."""
+        if self._tb is not None:
+            self._tb.close()
         self._tb = None
-
-
-def _open_writers(root: Path, seeds: tuple[int, ...]) -> dict[int, Any]:
-    try:
-        from tensorboardX import SummaryWriter
-    except ImportError:
-        print("warning: tensorboardX is not installed; skipping TensorBoard logs "
-              "(pip install 'hiddpg[tb]')", file=sys.stderr)
-        return {}
-    return {s: SummaryWriter(logdir=str(root / f"seed_{s}")) for s in seeds}
-
-
-def find_non_finite(train: dict[str, np.ndarray], seeds: tuple[int, ...]
-                    ) -> tuple[str, int, int] | None:
-    """The first ``(metric, seed, episode)`` whose loss metric (a key containing ``loss``) is
-    NaN or infinite, in episode order; ``None`` if all are finite."""
-    first = None
-    for k in sorted(train):
-        if "loss" not in k:
-            continue
-        bad = ~np.isfinite(np.asarray(train[k], dtype=np.float64))
-        for i, e in zip(*np.nonzero(bad), strict=True):
-            hit = (int(train["episode"][i, e]), k, seeds[i])
-            first = hit if first is None or hit < first else first
-    return None if first is None else (first[1], first[2], first[0])
+        self.release()

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import ray
 
-from hiddpg import runner, sweep
+from hiddpg import runner, summary, sweep
 from hiddpg.devices import CPU_DEVICES_FLAG
 from hiddpg.reporter import ConsoleReporter
 
@@ -53,7 +53,7 @@ def train_task(run: sweep.SweepRun, out: str) -> int:
     sweep.record_attempt(path, run, pid=os.getpid(), start_episode=ready.done)
     result = runner.train_run(ready.run, ready.trainer, reporter=ConsoleReporter())
     if result.status == runner.FINISHED:
-        print(runner.result_line(ready.run, result.wall_time))
+        print(summary.result_line(ready.run, result.wall_time))
     elif result.status == runner.FAILED:
         print(f"hiddpg sweep: error: {result.error}", file=sys.stderr)
     return EXIT_CODES[result.status]

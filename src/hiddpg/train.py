@@ -202,3 +202,18 @@ def make_train(config: TrainConfig):
         return state, jax.tree.map(cat, *train_ms), jax.tree.map(cat, *eval_ms)
 
     return train
+
+
+_TRAINERS: dict[TrainConfig, Trainer] = {}
+
+
+def make_trainer(config: TrainConfig) -> Trainer:
+    """A :class:`Trainer` for ``config``, shared by equal configs in this process so that its
+    jitted functions compile once (the jit cache is keyed by the trainer object)."""
+    try:
+        hash(config)
+    except TypeError:  # an unhashable env override value
+        return Trainer(config)
+    if config not in _TRAINERS:
+        _TRAINERS[config] = Trainer(config)
+    return _TRAINERS[config]

@@ -62,9 +62,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                        errors=(UsageError, ValueError, FileNotFoundError))
 
 
-def _open(args: argparse.Namespace) -> tuple[Run, Any]:
-    """The run to evaluate and its trainer; a usage error if the GIF path is unusable, or the
-    run directory, the seed or the checkpoint is missing (the paths are checked first)."""
+def _open(args: argparse.Namespace) -> tuple[Run, Any, Any, int]:
+    """The run to evaluate, its trainer and its checkpointed state and episodes; a usage error
+    if the GIF path is unusable, or the run directory, the seed or the checkpoint is missing
+    (the paths are checked first), and a one-line error naming a checkpoint or config that
+    cannot be read (:class:`hiddpg.run_files.RunFileError`)."""
     if args.gif is not None:
         args.gif = gif_path(args.gif, "--gif")
     run = Run.open(existing_dir(args.run, "DIR"))
@@ -73,13 +75,14 @@ def _open(args: argparse.Namespace) -> tuple[Run, Any]:
                          f"{list(run.seeds)}")
     if not run.checkpoint_path.is_file():
         raise UsageError(f"{run.path} has no checkpoint yet")
-    return run, make_trainer(run.config)
-
-
-def _evaluate(args: argparse.Namespace, opened: tuple[Run, Any]) -> int:
-    """Evaluate every seed from the checkpoint, print the table and write the GIF."""
-    run, trainer = opened
+    trainer = make_trainer(run.config)
     state, done = run.load_checkpoint(trainer)
+    return run, trainer, state, done
+
+
+def _evaluate(args: argparse.Namespace, opened: tuple[Run, Any, Any, int]) -> int:
+    """Evaluate every seed from the checkpoint, print the table and write the GIF."""
+    run, trainer, state, done = opened
     metrics, traj = trainer.evaluate_seeds(state, eval_keys(args.key, run.seeds))
     metrics = {k: np.asarray(v) for k, v in metrics.items()}
     shown = [args.seed] if args.seed is not None else list(run.seeds)

@@ -2,38 +2,50 @@
 
 ::
 
-    hiddpg train ALGO TASK [--seeds 0-14] [--episodes N] [--preset paper|quick]
+    hiddpg train ALGO TASK [--preset quick|paper] [--seeds S] [--episodes N]
                  [--set key=value ...] [--out DIR] [--name NAME]
     hiddpg train --resume DIR [--episodes N]
 
-Every config error (unknown algorithm, task or ``--set`` key, a value out of range, bad seeds)
-is one line on stderr and exit code 2, before anything is compiled or written. After every
-chunk the metrics are appended, TensorBoard is written and the loss metrics are checked: a
-non-finite loss stops the run with exit code 1 and keeps the last good checkpoint; Ctrl-C or
-SIGTERM stops it with exit code 130. The loop itself is :func:`hiddpg.runner.train_run`.
+A bare ``hiddpg train ALGO TASK`` trains the quick preset on seeds 0-4 (minutes);
+``--preset paper`` is the paper's budget on its 15 seeds 0-14 (hours on two cores). Before
+training the run says what it will do (seeds, episodes, environment steps, checkpoint size)
+and, after its first chunk, how long it will take.
+
+Every config or path error (unknown algorithm, task or ``--set`` key, a value out of range,
+bad seeds, a ``--name`` that is not a plain name) is one line on stderr and exit code 2,
+before anything is compiled or written. A run another process is training, or whose files
+cannot be trusted, is refused with exit code 1 and a message saying what to do. A non-finite
+loss stops the run with exit code 1 and keeps the last good checkpoint. SIGTERM and Ctrl-C
+stop it at once with exit code 143 and 130, the run marked ``interrupted`` at its last
+checkpoint (:mod:`hiddpg.stopping`). The loop itself is :func:`hiddpg.runner.train_run`.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from collections.abc import Callable, Sequence
-from pathlib import Path
 
 from hiddpg.algorithms import algorithm_names
 from hiddpg.commands.common import Parser as _Parser
 from hiddpg.commands.common import UsageError, argv_or_help
+from hiddpg.paths import existing_dir, output_dir
+from hiddpg.plan import describe
 from hiddpg.reporter import ConsoleReporter
+from hiddpg.run_files import RunFileError, RunLockedError
 from hiddpg.runner import (
     FAILED,
+    FINISHED,
     INTERRUPTED,
     open_for_resume,
     parse_seeds,
     prepare_new,
-    result_line,
     train_run,
 )
 from hiddpg.runs import Run, default_name, make_trainer
+from hiddpg.stopping import on_stop
+from hiddpg.summary import result_line
 from hiddpg.train import Trainer
 
 PROG = "hiddpg train"
@@ -48,14 +60,17 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a task, e.g. PuckTrajectory2 (see `hiddpg envs list`), or your "
                    "environment as module:Class (imported and registered)")
     p.add_argument("--seeds", default=None,
-                   help="seeds: a range '0-14', a list '0,3,5' or one '7' (default 0-14)")
+                   help="seeds: a range '0-14', a list '0,3,5' or one '7' (default: 0-4 for "
+                   "the quick preset, the paper's 0-14 for the paper preset)")
     p.add_argument("--episodes", type=int, default=None,
                    help="training episodes per seed (default: the preset's)")
-    p.add_argument("--preset", default=None, help="paper (default) or quick")
+    p.add_argument("--preset", default=None,
+                   help="quick (default: minutes) or paper (the paper's budget: hours)")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                    help="override a config field, e.g. agent.hidden=[64,64] (repeatable)")
     p.add_argument("--out", default="runs", help="parent directory of runs (default runs/)")
-    p.add_argument("--name", default=None, help="run name (default ALGO-TASK-TIMESTAMP)")
+    p.add_argument("--name", default=None, help="run name, a directory made in OUT "
+                   "(default ALGO-TASK-TIMESTAMP)")
     p.add_argument("--resume", default=None, metavar="DIR",
                    help="continue the run in DIR from its last checkpoint")
     return p
@@ -66,6 +81,22 @@ def _as_flag(err: ValueError, name: str) -> UsageError:
     line names the flag that gave it (``--seeds '0,x': ...``)."""
     text = str(err)
     return UsageError(f"--{text}" if text.startswith(f"{name} ") else text)
+
+
+#: the default seeds of each preset: a short look at several seeds, or the paper's 15 runs.
+DEFAULT_SEEDS = {"quick": "0-4", "paper": "0-14"}
+DEFAULT_PRESET = "quick"
+#: what a run name may be: one directory inside ``--out``.
+NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9._+=@-]*")
+
+
+def check_name(name: str) -> str:
+    """``--name`` is one plain directory name, so the run stays inside ``--out``."""
+    if not NAME_PATTERN.fullmatch(name) or len(name) > 200:
+        raise UsageError(f"--name {name!r}: a run name is one directory name of letters, "
+                         "digits and . _ + = @ - (not starting with . or -); to put runs "
+                         "elsewhere use --out DIR")
+    return name
 
 
 def _prepare(args: argparse.Namespace) -> tuple[Run, Trainer]:
@@ -80,21 +111,29 @@ def _prepare(args: argparse.Namespace) -> tuple[Run, Trainer]:
         if given:
             raise UsageError(f"--resume takes the run's config from {args.resume}; "
                              f"drop {', '.join(given)}")
+        path = existing_dir(args.resume, "--resume")
         try:
-            run, trainer, _ = open_for_resume(args.resume, args.episodes)
+            run, trainer, _ = open_for_resume(path, args.episodes)
+        except RunFileError:
+            raise
         except ValueError as err:
             raise _as_flag(err, "episodes") from None
+        except FileNotFoundError as err:
+            raise UsageError(f"--resume {args.resume!r}: {err}") from None
         return run, trainer
     if not args.algo or not args.task:
         raise UsageError("ALGO and TASK are required (or --resume DIR)")
+    preset = args.preset or DEFAULT_PRESET
     try:
-        seeds = parse_seeds(args.seeds or "0-14")
+        seeds = parse_seeds(args.seeds or DEFAULT_SEEDS.get(preset, "0-4"))
     except ValueError as err:
         raise _as_flag(err, "seeds") from None
+    out = output_dir(args.out, "--out")
+    name = check_name(args.name) if args.name is not None else None
     sets = list(args.sets) + ([f"episodes={args.episodes}"] if args.episodes is not None else [])
-    config = make_config(args.algo, args.task, args.preset or "paper", sets)
+    config = make_config(args.algo, args.task, preset, sets)
     trainer = make_trainer(config)  # builds env and agent: validates env overrides
-    path = Path(args.out) / (args.name or default_name(config.algo, config.task))
+    path = out / (name or default_name(config.algo, config.task))
     try:
         return prepare_new(config, seeds, path), trainer
     except FileExistsError as err:
@@ -111,10 +150,24 @@ def main(argv: Sequence[str] | None = None,
     try:
         args = build_parser().parse_args(argv)
         run, trainer = _prepare(args)
+    except (RunFileError, RunLockedError) as err:
+        print(f"{PROG}: error: {err}", file=sys.stderr)
+        return 1
     except (UsageError, ValueError, TypeError, FileNotFoundError) as err:
         print(f"{PROG}: error: {err}", file=sys.stderr)
         return 2
-    result = train_run(run, trainer, on_chunk=on_chunk, reporter=ConsoleReporter())
+    if args.resume and _finished(run, trainer):
+        print(f"{PROG}: {run.path} is finished ({run.config.episodes} episodes); nothing to "
+              f"do. Train it longer with: hiddpg train --resume {run.path} --episodes N "
+              f"(N > {run.config.episodes})", file=sys.stderr)
+        run.close()
+        print(result_line(run, _last_wall(run)))
+        return 0
+    reporter = ConsoleReporter()
+    with on_stop(lambda sig: print(f"{PROG}: stopped by {sig}; continue with: hiddpg train "
+                                   f"--resume {run.path}", file=sys.stderr)):
+        reporter.plan(describe(trainer.config, run.seeds, run.checkpoint_episodes()))
+        result = train_run(run, trainer, on_chunk=on_chunk, reporter=reporter)
     if result.status == INTERRUPTED:
         print(f"{PROG}: interrupted; continue with: hiddpg train --resume {run.path}",
               file=sys.stderr)
@@ -124,6 +177,22 @@ def main(argv: Sequence[str] | None = None,
         return 1
     print(result_line(run, result.wall_time))
     return 0
+
+
+def _finished(run: Run, trainer: Trainer) -> bool:
+    """The run has trained its budget and says so (nothing left to do on ``--resume``)."""
+    try:
+        status = run.progress().get("status")
+    except RunFileError:
+        return False
+    return status == FINISHED and run.checkpoint_episodes() >= trainer.config.episodes
+
+
+def _last_wall(run: Run) -> float:
+    try:
+        return float(run.progress()["wall_time"])
+    except (RunFileError, KeyError, ValueError):
+        return 0.0
 
 
 if __name__ == "__main__":  # pragma: no cover

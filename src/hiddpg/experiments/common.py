@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from hiddpg import runner
+from hiddpg import runner, summary
 from hiddpg.algorithms import get_algorithm
 from hiddpg.configs import HIDDPGConfig, TrainConfig
 from hiddpg.experiments.rundata import SNAPSHOT_DIR, ExperimentError
@@ -249,7 +249,7 @@ def _train(path: Path, open_run: Callable[[], runner.ReadyRun]) -> None:
         print(f"warning: {path} stopped early ({result.error}); using its episodes so far",
               file=sys.stderr)
         return
-    print(runner.result_line(run, result.wall_time))
+    print(summary.result_line(run, result.wall_time))
 
 
 def _check_same(run: Run, config: TrainConfig, seeds: list[int]) -> None:
