@@ -72,7 +72,8 @@ def test_same_seed_gives_identical_files(reference, tmp_path, capsys):
     assert train(tmp_path, "again") == 0
     assert files(tmp_path / "again") == files(reference)
     out = capsys.readouterr().out
-    assert out.startswith("final evaluation: environment return ") and f"run {tmp_path / 'again'}" in out
+    assert out.startswith("final evaluation: environment return ")
+    assert f"run {tmp_path / 'again'}" in out
 
 
 def test_resume_after_crash_equals_uninterrupted(reference, tmp_path):

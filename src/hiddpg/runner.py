@@ -157,7 +157,7 @@ def train_run(run: Run, trainer: Trainer, *, on_chunk: OnChunk | None = None,
     reporter = reporter if reporter is not None else Reporter()
     run.acquire()
     try:
-        with on_stop(partial(_stopped, run, reporter)):
+        with on_stop(partial(mark_stopped, run, reporter=reporter)):
             state, done, wall = _start(run, trainer, reporter)
             return _train(run, trainer, state, done, wall, on_chunk, reporter)
     except BaseException as err:  # keep the last checkpoint's progress, mark the run
@@ -181,10 +181,14 @@ def _last(run: Run) -> tuple[int, float]:
         return run.checkpoint_episodes(), 0.0
 
 
-def _stopped(run: Run, reporter: Reporter, signal_name: str) -> None:
+def mark_stopped(run: Run, signal_name: str, *, reporter: Reporter | None = None) -> None:
     """A signal stops the process (:mod:`hiddpg.stopping`): mark the run interrupted at its
-    last checkpoint and give its lock up."""
-    reporter.close()
+    last checkpoint and give its lock up (a stop action; once the lock is given up, a second
+    call does nothing)."""
+    if reporter is not None:
+        reporter.close()
+    if run.lock is None or not run.lock.held:
+        return
     episodes, wall = _last(run)
     run.write_progress(episodes, wall, INTERRUPTED, signal=signal_name,
                        error=f"stopped by {signal_name}")

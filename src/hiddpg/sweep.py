@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 from hiddpg import runner
+from hiddpg.run_files import RunFileError
 from hiddpg.runs import CONFIG_FILE, PROGRESS_FILE, Run, atomic_write, make_trainer
 from hiddpg.sweep_spec import (
     DEFAULT_PRESET,
@@ -55,7 +56,9 @@ def is_finished(path: str | Path, episodes: int = 0) -> bool:
     ``episodes`` episodes done)."""
     try:
         progress = json.loads((Path(path) / PROGRESS_FILE).read_text())
-    except (FileNotFoundError, json.JSONDecodeError):
+    except (FileNotFoundError, UnicodeDecodeError, json.JSONDecodeError):
+        return False
+    if not isinstance(progress, dict):
         return False
     return progress.get("status") == "finished" and progress.get("episodes", 0) >= episodes
 
@@ -70,8 +73,11 @@ def run_state(out: Path, run: SweepRun) -> str:
         if [p for p in path.iterdir() if not p.name.startswith(".")]:
             raise SweepError(f"{path} exists but is not a run directory (no {CONFIG_FILE}); "
                              "remove it or choose another --out")
-        return NEW  # killed inside Run.create: at most temporary files
-    saved = Run.open(path)
+        return NEW  # only hidden files: nothing of a run
+    try:
+        saved = Run.open(path)
+    except RunFileError as err:
+        raise SweepError(str(err)) from None
     if config_hash(saved.config) != config_hash(run.config):  # JSON-level: lists == tuples
         raise SweepError(f"{path}/{CONFIG_FILE} holds another config than the spec gives for "
                          f"{run.describe()} (was the code changed?); remove it or choose "
@@ -109,8 +115,8 @@ def open_run(run: SweepRun, out: Path) -> runner.ReadyRun | None:
 
 
 def _make_ready(run: SweepRun, out: Path) -> tuple[str, int]:
-    """The run's state (:func:`run_state`) and the episode it starts from, after removing what
-    a run killed inside ``Run.create`` left behind."""
+    """The run's state (:func:`run_state`) and the episode it starts from, after removing a
+    directory without a run in it where a new run goes."""
     path = out / run.name
     state = run_state(out, run)
     if state == FINISHED:
@@ -119,10 +125,10 @@ def _make_ready(run: SweepRun, out: Path) -> tuple[str, int]:
         if path.exists():
             shutil.rmtree(path)
         return state, 0
-    saved = Run.open(path)
-    if not (path / PROGRESS_FILE).is_file():  # killed inside Run.create
-        saved.write_progress(0, 0.0, "running")
-    return state, saved.checkpoint_episodes()
+    try:
+        return state, Run.open(path).checkpoint_episodes()
+    except (RunFileError, FileNotFoundError):  # resuming checks the files and says what is wrong
+        return state, 0
 
 
 def record_attempt(out: Path, run: SweepRun, pid: int, start_episode: int) -> None:

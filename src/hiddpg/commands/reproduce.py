@@ -23,6 +23,8 @@ from hiddpg.commands.common import Parser as _Parser
 from hiddpg.commands.common import UsageError, report_error, run_command
 from hiddpg.experiments.common import SCALES, Context, budget_table
 from hiddpg.experiments.rundata import ExperimentError
+from hiddpg.run_files import RunFileError, RunLockedError
+from hiddpg.stopping import on_stop
 
 PROG = "hiddpg reproduce"
 FIGURES = ("fig3", "fig4", "fig5", "fig6", "fig7", "fig8")
@@ -79,13 +81,16 @@ def _reproduce(args: argparse.Namespace, ctx: Context) -> int:
 
     figures = FIGURES if args.figure == "all" else (args.figure,)
     runners, t0 = _runners(), time.perf_counter()
+    stopped = on_stop(lambda sig: print(f"{PROG}: stopped by {sig}; run the same command "
+                                        "again to continue", file=sys.stderr))
     try:
-        for name in figures:
-            ctx.say(f"== {name} ({ctx.scale} scale) ==")
-            section = runners[name](ctx)
-            ctx.say(f"{name}: {', '.join(section['figures'])} ({section['wall_s']:.1f} s)")
-            write_report(ctx, time.perf_counter() - t0)
-    except ExperimentError as err:
+        with stopped:
+            for name in figures:
+                ctx.say(f"== {name} ({ctx.scale} scale) ==")
+                section = runners[name](ctx)
+                ctx.say(f"{name}: {', '.join(section['figures'])} ({section['wall_s']:.1f} s)")
+                write_report(ctx, time.perf_counter() - t0)
+    except (ExperimentError, RunFileError, RunLockedError) as err:
         return report_error(PROG, err, code=1)
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted; run the same command again to continue", file=sys.stderr)

@@ -35,15 +35,15 @@ from hiddpg import sweep
 from hiddpg.commands import train as train_cmd
 from hiddpg.commands.common import Parser as _Parser
 from hiddpg.commands.common import UsageError, report_error, run_command
+from hiddpg.commands.sweep_progress import SweepProgress, reason
 from hiddpg.devices import DEVICES_ENV, cpu_cores
-from hiddpg.runs import PROGRESS_FILE, Run
+from hiddpg.runs import Run
+from hiddpg.stopping import on_stop
 
 PROG = "hiddpg sweep"
-#: without a terminal, a progress line at most this often
-LOG_EVERY_S = 10.0
 POLL_S = 0.5
-#: the progress files of all runs are read at most this often
-READ_EVERY_S = 2.0
+#: how long a stopped sweep waits for a worker to stop before killing it
+STOP_WAIT_S = 30.0
 
 
 
@@ -158,17 +158,15 @@ def _sweep(args: argparse.Namespace, plan: _Plan) -> int:
           f"{len(runs) - len(todo)} complete (skipped), {counts[sweep.RESUME]} to resume, "
           f"{counts[sweep.NEW]} new; backend {args.backend}", file=sys.stderr)
     progress = SweepProgress(out, todo)
+
+    def stopped(sig: str) -> None:
+        progress.close()
+        print(f"{PROG}: stopped by {sig}; run the same command again to resume",
+              file=sys.stderr)
+
     try:
-        if not todo:
-            codes = {}
-        elif run_ray is not None:
-            codes = run_ray(todo, out, address=args.address, cpus_per_run=args.cpus_per_run,
-                            gpus_per_run=args.gpus_per_run, retries=args.retries,
-                            progress=progress)
-        elif args.workers == 1:
-            codes = run_sequential(todo, out, progress)
-        else:
-            codes = run_parallel(todo, out, args.workers, progress)
+        with on_stop(stopped):
+            codes = _run(args, todo, out, run_ray, progress)
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted; run the same command again to resume", file=sys.stderr)
         return 130
@@ -177,6 +175,19 @@ def _sweep(args: argparse.Namespace, plan: _Plan) -> int:
     finally:
         progress.close()
     return summarize(out, runs, codes)
+
+
+def _run(args: argparse.Namespace, todo: list[sweep.SweepRun], out: Path, run_ray,
+         progress: SweepProgress) -> dict[str, int | str]:
+    """Train ``todo`` on the chosen backend; each run's exit code (or error) by name."""
+    if not todo:
+        return {}
+    if run_ray is not None:
+        return run_ray(todo, out, address=args.address, cpus_per_run=args.cpus_per_run,
+                       gpus_per_run=args.gpus_per_run, retries=args.retries, progress=progress)
+    if args.workers == 1:
+        return run_sequential(todo, out, progress)
+    return run_parallel(todo, out, args.workers, progress)
 
 
 def _ray_backend():
@@ -218,92 +229,43 @@ def run_parallel(todo: list[sweep.SweepRun], out: Path, workers: int, progress: 
     env = dict(os.environ)  # share the cores: each worker gets cores // workers CPU devices
     env.setdefault(DEVICES_ENV, str(max(1, cpu_cores() // workers)))
     try:
-        while queue or running:
-            while queue and len(running) < workers:
-                run = queue.pop(0)
-                argv, start = sweep.prepare(run, out)
-                if argv is None:
-                    codes[run.name] = 0
-                    continue
-                with open(logs / f"{run.name}.log", "ab") as log:
-                    proc = subprocess.Popen([sys.executable, "-m", "hiddpg.cli", "train", *argv],
-                                            stdout=log, stderr=subprocess.STDOUT, env=env)
-                sweep.record_attempt(out, run, pid=proc.pid, start_episode=start)
-                running[proc] = run
-            time.sleep(POLL_S)
-            progress.poll()
-            for proc in [p for p in running if p.poll() is not None]:
-                run = running.pop(proc)
-                codes[run.name] = proc.returncode
-                progress.run_done(run, proc.returncode)
+        with on_stop(lambda sig: _stop(list(running))):
+            while queue or running:
+                while queue and len(running) < workers:
+                    run = queue.pop(0)
+                    argv, start = sweep.prepare(run, out)
+                    if argv is None:
+                        codes[run.name] = 0
+                        continue
+                    cmd = [sys.executable, "-m", "hiddpg.cli", "train", *argv]
+                    with open(logs / f"{run.name}.log", "ab") as log:
+                        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
+                                                env=env)
+                    sweep.record_attempt(out, run, pid=proc.pid, start_episode=start)
+                    running[proc] = run
+                time.sleep(POLL_S)
+                progress.poll()
+                for proc in [p for p in running if p.poll() is not None]:
+                    run = running.pop(proc)
+                    codes[run.name] = proc.returncode
+                    progress.run_done(run, proc.returncode)
     finally:
-        for proc in running:  # interrupted: stop our own children; their runs stay resumable
-            proc.terminate()
-        for proc in running:
-            proc.wait()
+        _stop(list(running))
     return codes
 
 
-class SweepProgress:
-    """One progress bar for the whole sweep: episodes done over all its runs, read from each
-    run's progress.json (so it works for runs trained anywhere that writes to OUT)."""
-
-    def __init__(self, out: Path, runs: list[sweep.SweepRun]) -> None:
-        from rich.console import Console
-
-        self.out, self.runs = out, runs
-        self.total = sum(run.config.episodes for run in runs)
-        self.finished = 0
-        self.console = Console(stderr=True)
-        self.bar, self.last_log, self.last_read, self.done = None, time.monotonic(), 0.0, 0
-        if self.console.is_terminal and runs:
-            from rich.progress import (
-                BarColumn,
-                MofNCompleteColumn,
-                Progress,
-                TextColumn,
-                TimeElapsedColumn,
-            )
-
-            self.bar = Progress(TextColumn("[bold]sweep"), BarColumn(), MofNCompleteColumn(),
-                                TextColumn("episodes  {task.fields[runs]}"),
-                                TimeElapsedColumn(), console=self.console)
-            self.task = self.bar.add_task("sweep", total=self.total, runs="")
-            self.bar.start()
-
-    def episodes_done(self) -> int:
-        done = 0
-        for run in self.runs:
-            try:
-                done += json.loads((self.out / run.name / PROGRESS_FILE).read_text())["episodes"]
-            except (FileNotFoundError, json.JSONDecodeError, KeyError):
-                pass
-        return done
-
-    def poll(self, force: bool = False) -> None:
-        if force or time.monotonic() - self.last_read >= READ_EVERY_S:
-            self.done, self.last_read = self.episodes_done(), time.monotonic()
-        done, runs = self.done, f"{self.finished}/{len(self.runs)} runs done"
-        if self.bar is not None:
-            self.bar.update(self.task, completed=done, runs=runs)
-        elif time.monotonic() - self.last_log >= LOG_EVERY_S:
-            self.last_log = time.monotonic()
-            print(f"sweep: {done}/{self.total} episodes, {runs}", file=sys.stderr, flush=True)
-
-    def run_done(self, run: sweep.SweepRun, code: int | str) -> None:
-        self.finished += 1
-        status = "finished" if code == 0 else f"FAILED ({_reason(code)})"
-        self.console.print(f"{run.name}: {status}", highlight=False)
-        self.poll(force=True)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.stop()
-            self.bar = None
-
-
-def _reason(code: int | str) -> str:
-    return code if isinstance(code, str) else f"exit code {code}"
+def _stop(procs: list[subprocess.Popen]) -> None:
+    """Stop our own ``hiddpg train`` children (SIGTERM: each marks its run interrupted at its
+    last checkpoint, so the runs stay resumable) and wait for them."""
+    for proc in procs:
+        if proc.poll() is None:
+            proc.terminate()
+    for proc in procs:
+        try:
+            proc.wait(timeout=STOP_WAIT_S)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
 
 
 def summarize(out: Path, runs: list[sweep.SweepRun], codes: dict[str, int | str]) -> int:
@@ -313,7 +275,7 @@ def summarize(out: Path, runs: list[sweep.SweepRun], codes: dict[str, int | str]
         code = codes.get(run.name, 0)
         if code != 0 or not sweep.is_finished(out / run.name, run.config.episodes):
             failed += 1
-            print(f"FAILED  {run.name}  ({_reason(code)}; see {out / run.name})")
+            print(f"FAILED  {run.name}  ({reason(code)}; see {out / run.name})")
             continue
         finals = np.array(list(Run.open(out / run.name).final_eval().values()))
         std = finals.std(ddof=1) if finals.size > 1 else 0.0

@@ -38,6 +38,7 @@ from hiddpg.runner import (
     FAILED,
     FINISHED,
     INTERRUPTED,
+    mark_stopped,
     open_for_resume,
     parse_seeds,
     prepare_new,
@@ -164,8 +165,12 @@ def main(argv: Sequence[str] | None = None,
         print(result_line(run, _last_wall(run)))
         return 0
     reporter = ConsoleReporter()
-    with on_stop(lambda sig: print(f"{PROG}: stopped by {sig}; continue with: hiddpg train "
-                                   f"--resume {run.path}", file=sys.stderr)):
+    def stopped(sig: str) -> None:  # also before train_run has started
+        mark_stopped(run, sig)
+        print(f"{PROG}: stopped by {sig}; continue with: hiddpg train --resume {run.path}",
+              file=sys.stderr)
+
+    with on_stop(stopped):
         reporter.plan(describe(trainer.config, run.seeds, run.checkpoint_episodes()))
         result = train_run(run, trainer, on_chunk=on_chunk, reporter=reporter)
     if result.status == INTERRUPTED:
