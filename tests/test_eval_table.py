@@ -19,10 +19,10 @@ METRICS = {"return": np.array([-30.0, -20.0, -10.0]), "env_return": np.array([-2
 
 def table(capsys, seed=None) -> list[str]:
     trainer = SimpleNamespace(evaluate_seeds=lambda state, keys: (METRICS, {}))
-    run = SimpleNamespace(seeds=(0, 1, 2), load_checkpoint=lambda t: (None, 40),
+    run = SimpleNamespace(seeds=(0, 1, 2),
                           config=SimpleNamespace(algo="hi-ddpg", task="PuckTrajectory2"))
     args = argparse.Namespace(seed=seed, key=0, gif=None)
-    assert eval_cmd._evaluate(args, (run, trainer)) == 0
+    assert eval_cmd._evaluate(args, (run, trainer, None, 40)) == 0
     return capsys.readouterr().out.splitlines()
 
 
