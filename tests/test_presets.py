@@ -1,4 +1,6 @@
-"""The presets' per-task decisions (docs/algorithms.md, "Decisions that make learning work")."""
+"""The stabilised configuration's per-task decisions, as the quick preset carries them
+(docs/algorithms.md, "Decisions that make learning work"); the paper preset has none of them
+(tests/test_paper_preset.py)."""
 
 from __future__ import annotations
 
@@ -21,7 +23,7 @@ def action_penalty(algo: str, task: str, preset: str) -> float:
     return agent.skill.action_l2 if algo == "h-ddpg" else agent.action_l2
 
 
-@pytest.mark.parametrize("preset", ["paper", "quick"])
+@pytest.mark.parametrize("preset", ["quick"])
 @pytest.mark.parametrize("algo", ["ddpg", "h-ddpg", "hi-ddpg"])
 def test_the_action_penalty_is_for_forces_only(algo, preset):
     """Puck: the penalty on the unit action pulls forces to 0. Arm: unit 0 is activation 0.5
@@ -34,7 +36,7 @@ def test_the_action_penalty_is_for_forces_only(algo, preset):
     assert (float(env.action_low), float(env.action_high)) == (0.0, 1.0)
 
 
-@pytest.mark.parametrize("preset", ["paper", "quick"])
+@pytest.mark.parametrize("preset", ["quick"])
 @pytest.mark.parametrize("task", PUCK + ARM)
 def test_hi_ddpg_presets(task, preset):
     for algo in ("hi-ddpg", "hi-ddpg-wo-model"):
@@ -43,12 +45,10 @@ def test_hi_ddpg_presets(task, preset):
         terminating = task in ("PuckObstacle", "ArmObstacle")
         assert agent.high.end_is_terminal == terminating
         assert agent.low.env_terminal == (not terminating)
-        assert agent.pretrain_episodes == {("paper", True): 1000, ("paper", False): 0,
-                                           ("quick", True): 200, ("quick", False): 300}[
-            (preset, task.startswith("Arm"))]
+        assert agent.pretrain_episodes == (200 if task.startswith("Arm") else 300)
 
 
-@pytest.mark.parametrize("preset", ["paper", "quick"])
+@pytest.mark.parametrize("preset", ["quick"])
 @pytest.mark.parametrize("task", PUCK + ARM)
 def test_high_level_noise_decays_on_the_arm_obstacle_task_only(task, preset):
     for algo in ("hi-ddpg", "hi-ddpg-wo-model"):
@@ -68,7 +68,7 @@ def test_the_critic_durations_sets_make_a_valid_argmax_config_with_low_noise_to_
     """``CRITIC_DURATIONS`` on top of the hold-choice preset: the critic's durations, no model,
     goals penalised by 0.1, the low level's noise reaching 0 with this run's episodes, its
     hindsight goals and the rest weight."""
-    for preset in ("paper", "quick"):
+    for preset in ("quick",):
         cfg = make_config("hi-ddpg", "PuckTrajectory2", preset,
                           ["episodes=700", *CRITIC_DURATIONS])
         agent = cfg.agent

@@ -127,7 +127,7 @@ for _algorithm in (
     Algorithm("hi-ddpg", HIDDPGConfig, _hi_ddpg, _presets("hi_ddpg"),
               "HI-DDPG: goals and durations above a goal-reaching DDPG",
               "hiddpg.presets:hi_ddpg_finish"),
-    Algorithm("hi-ddpg-wo-model", HIDDPGConfig, _hi_ddpg_wo_model, _presets("hi_ddpg"),
+    Algorithm("hi-ddpg-wo-model", HIDDPGConfig, _hi_ddpg_wo_model, _presets("hi_ddpg_wo_model"),
               "HI-DDPG without the model-based gradient", "hiddpg.presets:hi_ddpg_finish"),
     Algorithm("h-ddpg", HDDPGConfig, _h_ddpg, _presets("h_ddpg"),
               "h-DDPG: a meta-critic choosing among the task's skills every step",

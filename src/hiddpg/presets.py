@@ -1,8 +1,12 @@
 """Named presets and ``--set key=value`` overrides.
 
-* ``paper``: the paper's hyper-parameters for the task's family (puck or arm; a user's
-  ``custom`` task gets the puck values), the spec's defaults where the paper is silent;
-* ``quick``: small networks and budgets, for the README's main job, CI and smoke studies.
+* ``paper``: the paper's algorithm and hyper-parameters for the task's family (puck or arm; a
+  user's ``custom`` task gets the puck values), the spec's decisions where the paper is silent,
+  and nothing else: no stabiliser, no extension (docs/algorithms.md, "The paper preset");
+* ``quick``: small networks and budgets on top of the stabilised configuration
+  (:func:`ddpg_stable`, ...: the paper's values plus the stabilisers and per-task choices of
+  docs/algorithms.md, "Decisions that make learning work"), for the README's main job, CI and
+  smoke studies.
 
 Each algorithm names its preset builders (``ddpg_paper``, ``hi_ddpg_quick``, ...) in
 :mod:`hiddpg.algorithms`. :func:`make_config` builds a validated :class:`TrainConfig` from
@@ -33,8 +37,8 @@ from hiddpg.overrides import apply_overrides
 
 PRESETS = ("paper", "quick")
 
-#: Stabilisers of both presets' actors: without them ``tanh`` saturates within a few hundred
-#: episodes [decision; docs/algorithms.md, "Decisions that make learning work"].
+#: Stabilisers of the stabilised configuration's actors: without them ``tanh`` saturates within
+#: a few hundred episodes [decision; docs/algorithms.md, "Decisions that make learning work"].
 STABILIZE = {"tau": 0.01, "action_l2": 1.0}
 
 
@@ -119,42 +123,70 @@ def family_values(task: str) -> FamilyValues:
     return FAMILY_VALUES[task_family(task)]
 
 
-def _ddpg(task: str, v: FamilyValues) -> DDPGConfig:
-    return DDPGConfig(hidden=v.hidden, noise=NoiseConfig(sigma=v.sigma), buffer_size=100_000,
-                      lr_decay=v.lr_decay, action_l2=v.action_l2,
-                      tau=STABILIZE["tau"], end_is_terminal=task_name(task) in TERMINATING_TASKS)
-
-
 def ddpg_paper(task: str) -> DDPGConfig:
-    """Flat DDPG with the family's networks, noise, decay and action penalty."""
-    return _ddpg(task, family_values(task))
+    """Flat DDPG as the paper runs it: the family's networks, OU noise and learning-rate decay
+    (arm), the DDPG paper's rates, τ and batch; no action penalty, the time limit bootstraps."""
+    v = family_values(task)
+    return DDPGConfig(hidden=v.hidden, noise=NoiseConfig(sigma=v.sigma), buffer_size=100_000,
+                      lr_decay=v.lr_decay)
+
+
+def _level(v: FamilyValues, lr: float, gamma: float, buffer_size: int) -> LevelConfig:
+    return LevelConfig(hidden=v.hidden, lr=lr, gamma=gamma, buffer_size=buffer_size,
+                       noise=NoiseConfig(sigma=v.sigma))
 
 
 def hi_ddpg_paper(task: str) -> HIDDPGConfig:
-    """HI-DDPG with the family's levels; the trajectory tasks pay a switch cost and may hold."""
-    v, name = family_values(task), task_name(task)
-    end_terminal = name in TERMINATING_TASKS
-    switching = name in SWITCHING_TASKS
-    noise = NoiseConfig(sigma=v.sigma)
-    high_noise = (dataclasses.replace(noise, final_sigma=0.0)
-                  if name in DECAYING_HIGH_NOISE_TASKS else noise)
-    high = LevelConfig(hidden=v.hidden, lr=v.high_lr, gamma=0.99, buffer_size=v.high_buffer,
-                       noise=high_noise, tau=STABILIZE["tau"], invert_gradients=True,
-                       end_is_terminal=end_terminal)
-    low = LevelConfig(hidden=v.hidden, lr=v.low_lr, gamma=0.95, buffer_size=v.low_buffer,
-                      noise=noise, tau=STABILIZE["tau"], action_l2=v.action_l2,
-                      env_terminal=not end_terminal)
+    """HI-DDPG as Algorithm 1 runs it: the actor chooses goal and duration, one high-level
+    update per segment end, the model-based gradient at both levels, constant OU noise,
+    low-level pre-training on the arm; the trajectory tasks pay the paper's switch cost."""
+    v = family_values(task)
     return HIDDPGConfig(
-        high=high, low=low, duration_min=v.duration_min, duration_max=v.duration_max,
-        switch_cost=10.0 if switching else 0.0, pretrain_episodes=v.pretrain_episodes,
-        lr_decay=v.lr_decay, eager_high=EagerHighLevel(),
-        choice=HOLD_CHOICE if switching else ActorChoice(),
-    )
+        high=_level(v, v.high_lr, 0.99, v.high_buffer), low=_level(v, v.low_lr, 0.95, v.low_buffer),
+        duration_min=v.duration_min, duration_max=v.duration_max,
+        switch_cost=10.0 if task_name(task) in SWITCHING_TASKS else 0.0,
+        pretrain_episodes=v.pretrain_episodes, lr_decay=v.lr_decay)
 
 
 def h_ddpg_paper(task: str) -> HDDPGConfig:
-    """h-DDPG whose skills are the family's DDPG and whose meta-critic has its networks."""
-    skill = dataclasses.replace(_ddpg(task, family_values(task)), gamma=0.99)
+    """h-DDPG whose skills are the paper preset's DDPG (γ 0.99) and whose meta-critic has the
+    same networks."""
+    skill = dataclasses.replace(ddpg_paper(task), gamma=0.99)
+    return HDDPGConfig(skill=skill, meta=MetaCriticConfig(hidden=skill.hidden))
+
+
+def ddpg_stable(task: str) -> DDPGConfig:
+    """:func:`ddpg_paper` with the stabilisers (τ, the action penalty) and, on the tasks that
+    terminate, no bootstrap at the time limit [decision]."""
+    v = family_values(task)
+    return dataclasses.replace(ddpg_paper(task), action_l2=v.action_l2, tau=STABILIZE["tau"],
+                               end_is_terminal=task_name(task) in TERMINATING_TASKS)
+
+
+def hi_ddpg_stable(task: str) -> HIDDPGConfig:
+    """:func:`hi_ddpg_paper` with the stabilisers and per-task choices [decision]: τ,
+    inverted gradients and the action penalty; the eager high level; on the tasks that
+    terminate, no high-level bootstrap at the time limit and a low level that bootstraps
+    through collisions; the hold choice on the trajectory tasks; on ArmObstacle a high-level
+    noise decaying to 0; the model term unmasked at terminal transitions, as its measurements
+    were made."""
+    v, name = family_values(task), task_name(task)
+    agent = hi_ddpg_paper(task)
+    end_terminal = name in TERMINATING_TASKS
+    high_noise = (dataclasses.replace(agent.high.noise, final_sigma=0.0)
+                  if name in DECAYING_HIGH_NOISE_TASKS else agent.high.noise)
+    high = dataclasses.replace(agent.high, noise=high_noise, tau=STABILIZE["tau"],
+                               invert_gradients=True, end_is_terminal=end_terminal)
+    low = dataclasses.replace(agent.low, tau=STABILIZE["tau"], action_l2=v.action_l2,
+                              env_terminal=not end_terminal)
+    return dataclasses.replace(
+        agent, high=high, low=low, eager_high=EagerHighLevel(), model_masked=False,
+        choice=HOLD_CHOICE if name in SWITCHING_TASKS else ActorChoice())
+
+
+def h_ddpg_stable(task: str) -> HDDPGConfig:
+    """h-DDPG whose skills are :func:`ddpg_stable` (γ 0.99)."""
+    skill = dataclasses.replace(ddpg_stable(task), gamma=0.99)
     return HDDPGConfig(skill=skill, meta=MetaCriticConfig(hidden=skill.hidden))
 
 
@@ -163,14 +195,15 @@ QUICK_HIDDEN = (64, 64)
 
 
 def ddpg_quick(task: str) -> DDPGConfig:
-    """``ddpg_paper`` with small networks, faster learning rates and a short random phase."""
-    return dataclasses.replace(ddpg_paper(task), hidden=QUICK_HIDDEN, actor_lr=1e-3,
+    """:func:`ddpg_stable` with small networks, faster learning rates and a short random
+    phase."""
+    return dataclasses.replace(ddpg_stable(task), hidden=QUICK_HIDDEN, actor_lr=1e-3,
                                critic_lr=1e-3, buffer_size=20_000, learning_starts=300)
 
 
 def hi_ddpg_quick(task: str) -> HIDDPGConfig:
-    """``hi_ddpg_paper`` with small networks and buffers and a short pre-training."""
-    agent = hi_ddpg_paper(task)
+    """:func:`hi_ddpg_stable` with small networks and buffers and a short pre-training."""
+    agent = hi_ddpg_stable(task)
     return dataclasses.replace(
         agent,
         high=dataclasses.replace(agent.high, hidden=QUICK_HIDDEN, lr=1e-3, buffer_size=5_000,
@@ -181,9 +214,22 @@ def hi_ddpg_quick(task: str) -> HIDDPGConfig:
     )
 
 
+def _without_model(agent: HIDDPGConfig) -> HIDDPGConfig:
+    """The paper's HI-DDPG-wo-model ablation: no model-based gradient, no models trained."""
+    return dataclasses.replace(agent, model_weight=0.0, use_model=False)
+
+
+def hi_ddpg_wo_model_paper(task: str) -> HIDDPGConfig:
+    return _without_model(hi_ddpg_paper(task))
+
+
+def hi_ddpg_wo_model_quick(task: str) -> HIDDPGConfig:
+    return _without_model(hi_ddpg_quick(task))
+
+
 def h_ddpg_quick(task: str) -> HDDPGConfig:
-    """``h_ddpg_paper`` with small networks and the quick DDPG settings for the skills."""
-    agent = h_ddpg_paper(task)
+    """:func:`h_ddpg_stable` with small networks and the quick DDPG settings for the skills."""
+    agent = h_ddpg_stable(task)
     skill = dataclasses.replace(agent.skill, hidden=QUICK_HIDDEN, actor_lr=1e-3,
                                 critic_lr=1e-3, buffer_size=20_000, learning_starts=300)
     meta = dataclasses.replace(agent.meta, hidden=QUICK_HIDDEN, lr=1e-3, buffer_size=20_000)

@@ -41,11 +41,11 @@ def test_return_beats_a_random_policy(trained):
     first, metrics, _ = trained
     # the first 10 episodes act uniformly at random (learning_starts = 300 steps)
     random_returns = np.asarray(first["return"][:, :10])
-    assert np.median(random_returns) < -60.0  # what a random policy returns
+    assert np.median(random_returns) < -120.0  # what a random policy returns (weight 2)
     final = np.asarray(metrics["return"])
     assert np.all(final > random_returns.max() + 10.0), (final, random_returns.max())
     assert np.median(final) > random_returns.max() + 15.0, (final, random_returns.max())
-    assert np.median(np.asarray(metrics["env_return"])) > -15.0
+    assert np.median(np.asarray(metrics["env_return"])) > -15.0  # 0.25 per step from p_ref
 
 
 def nearest_goal_distance(goals: np.ndarray, alive: np.ndarray) -> float:

@@ -107,7 +107,8 @@ def test_env_return_is_the_tasks_reward(solved, task):
     _, params = task
     data = solved["data"]
     positions = np.asarray(data["states"])[1:, :2]
-    rewards = -np.linalg.norm(positions - np.asarray(params.ref_states[:, :2]), axis=1)
+    rewards = -params.tracking_weight * np.linalg.norm(
+        positions - np.asarray(params.ref_states[:, :2]), axis=1)
     np.testing.assert_allclose(data["rewards"], rewards, atol=1e-5)
     assert data["env_return"] == pytest.approx(rewards.sum(), abs=1e-4)
     assert data["episode_steps"] == 30

@@ -93,10 +93,12 @@ def test_reference_controller_scores_zero_on_its_task(task):
 
 
 def test_trajectory_reward_is_minus_position_error():
+    """``-w |p - p_ref|`` with the spec's ``tracking_weight = 2``."""
     env, params = make("PuckTrajectory2")
+    assert params.tracking_weight == 2.0
     out = rollout(env, params, lambda obs, state: jnp.zeros(2), 30)
     error = np.linalg.norm(np.asarray(out.obs[:, :2] - params.ref_states[:, :2]), axis=1)
-    np.testing.assert_allclose(out.reward, -error, rtol=1e-5)
+    np.testing.assert_allclose(out.reward, -2.0 * error, rtol=1e-5)
     assert out.info["goals"].shape == (30, 2, 2)
     np.testing.assert_allclose(out.info["goal"][14], [1.2, -0.9])
     np.testing.assert_allclose(out.info["goal"][15], [2.3, 1.5])

@@ -35,6 +35,7 @@ class Chooser:
     duration_max: float
     model_weight: float
     use_model: bool
+    model_masked: bool = True
 
     time_input = False
     """Whether the high level also sees the fraction of the episode left."""
@@ -48,7 +49,8 @@ class Chooser:
         """The high level: input ``s``, action ``(g, T)``, the model-based gradient."""
         return Level(config=self.level_config, state_dim=self.obs_dim + int(self.time_input),
                      context_dim=0, action_dim=self.goal_dim + 1, time_scale=1.0,
-                     model_weight=self.model_weight, use_model=self.use_model)
+                     model_weight=self.model_weight, use_model=self.use_model,
+                     model_masked=self.model_masked)
 
     # -- the action's meaning -----------------------------------------------------------------
     def decode(self, action: jax.Array) -> tuple[jax.Array, jax.Array]:
@@ -119,4 +121,4 @@ def make_chooser(config: HIDDPGConfig, obs_dim: int, goal_space: GoalSpace) -> C
     return cls(config=config.choice, level_config=config.high, obs_dim=obs_dim,
                goal_space=goal_space, duration_min=config.duration_min,
                duration_max=config.duration_max, model_weight=config.model_weight,
-               use_model=config.use_model)
+               use_model=config.use_model, model_masked=config.model_masked)

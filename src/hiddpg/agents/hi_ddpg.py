@@ -77,7 +77,8 @@ class HIDDPG:
                                   obs_dim=env.obs_dim, reward=self.intrinsic_reward)
         return Level(config=c.low, state_dim=env.obs_dim, context_dim=env.obs_dim,
                      action_dim=env.action_dim, time_scale=float(env.dt),
-                     model_weight=c.model_weight, use_model=c.use_model, hindsight=hindsight)
+                     model_weight=c.model_weight, use_model=c.use_model, hindsight=hindsight,
+                     model_masked=c.model_masked)
 
     @property
     def goal_dim(self) -> int:
@@ -206,7 +207,10 @@ class HIDDPG:
         seg_end = alive & ((seg.remaining <= 0) | done)
         # line 14: the high level's reward, the switch cost for every goal after the first
         f = seg_reward - c.switch_cost * (seg.n_goals > 1)
-        adds = {"env_return": r_env, "ret": jnp.where(seg_end, f, 0.0), "length": alive}
+        space = self.env.goal_space  # how far each segment ended from its goal
+        reach = jnp.linalg.norm(space.select(res.obs) - space.select(seg.goal))
+        adds = {"env_return": r_env, "ret": jnp.where(seg_end, f, 0.0), "length": alive,
+                "reach_error": jnp.where(seg_end, reach, 0.0), "segments": seg_end}
         if train:
             state, learned = self._store_and_learn(state, seg, obs, action, res, r_int, f,
                                                    alive, seg_end, keys, random_phase,

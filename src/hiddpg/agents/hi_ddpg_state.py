@@ -14,7 +14,9 @@ from hiddpg.agents.level import LevelState
 from hiddpg.agents.streams import split_named
 from hiddpg.configs import NoiseConfig
 
-_LOSSES = ("critic_loss", "actor_loss", "model_loss")
+#: per level, means over the episode's updates: the losses, the critic's mean value of its
+#: batch and the mean norm of the actor's action gradient (model term included)
+_LOSSES = ("critic_loss", "actor_loss", "model_loss", "q_mean", "dq_da_norm")
 
 #: the random streams of one step, one per purpose
 STREAMS = ("high_noise", "high_random", "choice_explore", "choice_settle", "low_noise",
@@ -60,7 +62,8 @@ def new_segment(obs: jax.Array, seg_obs: jax.Array, goal_dim: int, action_dim: i
 def zero_sums() -> dict[str, jax.Array]:
     """The per-step sums of an episode: both levels' losses and updates, the returns."""
     names = [f"{lv}_{m}" for lv in ("high", "low") for m in _LOSSES]
-    names += ["high_updates", "low_updates", "env_return", "ret", "length"]
+    names += ["high_updates", "low_updates", "env_return", "ret", "length", "reach_error",
+              "segments"]
     return {n: jnp.zeros(()) for n in names}
 
 
@@ -75,10 +78,12 @@ def update_sums(high_m: dict, low_m: dict, learn_high: jax.Array,
 
 def episode_metrics(state: HIDDPGState, seg: Segment, sums: dict,
                     train: bool) -> EpisodeMetrics:
-    """The episode's returns, length and switches (goals after the first); in training also
-    each level's mean losses per update."""
+    """The episode's returns, length, switches (goals after the first) and ``reach_error``,
+    the mean distance between a segment's last state and its goal (goal entries); in training
+    also each level's mean losses, critic value and action-gradient norm per update."""
     s = sums
-    extra = {"env_steps": state.env_steps.astype(jnp.float32)}
+    extra = {"env_steps": state.env_steps.astype(jnp.float32),
+             "reach_error": s["reach_error"] / jnp.maximum(s["segments"], 1.0)}
     if train:
         for lv in ("high", "low"):
             n = jnp.maximum(s[f"{lv}_updates"], 1.0)

@@ -55,6 +55,8 @@ class Level:
         time_scale: the model's ``Δt`` (low level: the env's control period; high level: 1).
         model_weight: λ of the model-based gradient (0 switches the term off).
         use_model: whether the model is trained.
+        model_masked: the model-based term is multiplied by ``1 - terminated`` of each sampled
+            transition (no successor value where the episode ended).
         hindsight: hindsight goals for the minibatches (:mod:`hiddpg.agents.hindsight`), or
             None.
     """
@@ -67,6 +69,7 @@ class Level:
     model_weight: float
     use_model: bool
     hindsight: Hindsight | None = None
+    model_masked: bool = True
 
     @property
     def block(self) -> DDPGBlock:
@@ -100,9 +103,13 @@ class Level:
                              model=self.model.set_learning_rate(state.model, lr))
 
     # -- the model-based gradient -----------------------------------------------------------
-    def extra_dq_da(self, block_state: BlockState, model_state: ModelState):
-        """``(inputs, a) -> λ ∂V(ŝ')/∂ŝ' ∂ŝ'/∂a`` for the block's actor step (spec §3)."""
+    def extra_dq_da(self, block_state: BlockState, model_state: ModelState,
+                    terminated: jax.Array | None = None):
+        """``(inputs, a) -> λ (1 - terminated) ∂V(ŝ')/∂ŝ' ∂ŝ'/∂a`` for the block's actor step
+        (spec §3); ``terminated`` (the batch's flags) None: unmasked."""
         n, block, model, lam = self.state_dim, self.block, self.model, self.model_weight
+        if terminated is not None:
+            lam = lam * (1.0 - terminated.astype(jnp.float32))[:, None]
         critic = block_state.critic
         actor = jax.lax.stop_gradient(block_state.actor)
 
@@ -138,7 +145,10 @@ class Level:
         next_q = None if next_value is None else next_value(block, state.block, tr.next_obs)
         block_state, critic_m = block.critic_update(state.block, tr, next_q=next_q,
                                                     huber_delta=delta)
-        extra = self.extra_dq_da(block_state, state.model) if self.model_weight > 0 else None
+        extra = None
+        if self.model_weight > 0:
+            mask = tr.terminated if self.model_masked else None
+            extra = self.extra_dq_da(block_state, state.model, mask)
         inputs = tr.inputs
         if actor_inputs is not None:
             inputs = actor_inputs(keys["actor_inputs"], inputs)
@@ -149,7 +159,8 @@ class Level:
             model_state, model_loss = self.model.update(state.model, tr.obs, tr.action,
                                                         tr.next_obs)
         metrics = {"critic_loss": critic_m["critic_loss"], "actor_loss": actor_m["actor_loss"],
-                   "model_loss": model_loss}
+                   "model_loss": model_loss, "q_mean": critic_m["q_mean"],
+                   "dq_da_norm": actor_m["dq_da_norm"]}
         return state.replace(block=block_state, model=model_state), metrics
 
     def maybe_update(self, state: LevelState, key: jax.Array, do: jax.Array, *,
@@ -167,5 +178,6 @@ def update_keys(key: jax.Array) -> dict[str, jax.Array]:
 
 
 def zero_metrics() -> dict[str, Any]:
-    return {"critic_loss": jnp.zeros(()), "actor_loss": jnp.zeros(()),
-            "model_loss": jnp.zeros(())}
+    """The metrics of an update that did not happen (same keys as :meth:`Level.update`)."""
+    return {k: jnp.zeros(()) for k in ("critic_loss", "actor_loss", "model_loss", "q_mean",
+                                       "dq_da_norm")}

@@ -36,6 +36,9 @@ class HIDDPGConfig:
     """λ_model, weight of the model-based gradient (eqs. 6-7) [decision]."""
     use_model: bool = True
     """Train the dynamics models (False for HI-DDPG-wo-model)."""
+    model_masked: bool = True
+    """The model-based term is multiplied by ``1 - terminated`` of each sampled transition:
+    where the episode ended there is no successor value to climb [decision; spec §3]."""
     pretrain_episodes: int = 0
     """Episodes of low-level pre-training with random goals: arm 1000, puck 0 [paper]."""
     learning_starts: int = 1000

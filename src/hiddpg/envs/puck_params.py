@@ -68,6 +68,9 @@ class PuckTrajectoryParams(PuckParams):
         switch_steps: ``(n_goals - 1,)`` int32: action ``k`` (0-based) aims at goal
             ``#{s in switch_steps : s <= k}``; ``None`` in ``default_params`` means the equal
             split of the horizon (none; 15; 10 and 20 for 30 steps) [decision].
+        tracking_weight: ``w`` of the reward ``-w |p - p_ref|`` [decision]: 2, so that at the
+            paper's switch cost the reference plan is the best plan of every trajectory task
+            (docs/environments.md).
         ref_states: ``(max_steps, 4)`` derived: reference state after each action.
         ref_actions: ``(max_steps, 2)`` derived: normalised actions producing ``ref_states``.
     """
@@ -76,6 +79,7 @@ class PuckTrajectoryParams(PuckParams):
         default_factory=lambda: jnp.asarray(REFERENCE_GOALS[1], jnp.float32)
     )
     switch_steps: jax.Array | None = None
+    tracking_weight: float = 2.0
     ref_states: jax.Array | None = None
     ref_actions: jax.Array | None = None
 

@@ -175,19 +175,21 @@ class PuckTrajectory(_Puck):
         are computed from the final values (so ``default_params(dt=0.05)`` is consistent)."""
         params = PuckTrajectoryParams(goals=jnp.asarray(REFERENCE_GOALS[self.n_goals]))
         params = _schedule(_apply_overrides(params, overrides))
+        check_range("tracking_weight", params.tracking_weight, 0.0, strict_low=True)
         states, actions = _reference_trajectory_jit(params.goals, params.switch_steps, params)
         return params.replace(ref_states=states, ref_actions=actions)
 
     def step(
         self, key: jax.Array, state: PuckState, action: jax.Array, params: PuckTrajectoryParams,
     ) -> StepResult:
-        """Reward ``-|p_k - p_ref_k|`` after ``k`` actions; terminated once ``k >= max_steps``
-        (steps past the horizon compare with the last reference state)."""
+        """Reward ``-w |p_k - p_ref_k|`` after ``k`` actions (``w = tracking_weight``);
+        terminated once ``k >= max_steps`` (steps past the horizon compare with the last
+        reference state)."""
         x = dynamics(state.x, action, params)
         t = state.t + 1
         index = jnp.minimum(t, params.max_steps) - 1
         p_ref = params.ref_states[index, POSITION]
-        reward = -_distance(x[POSITION], p_ref)
+        reward = -params.tracking_weight * _distance(x[POSITION], p_ref)
         goal = reference_goal(index, params.goals, params.switch_steps)
         info = {"p_ref": p_ref, "goal": goal, "goals": params.goals}
         return StepResult(
