@@ -96,8 +96,8 @@ def write_report(ctx: Context, invocation_s: float | None = None) -> Path:
     lines += ["## Time spent", "", "| item | wall-clock seconds |", "|---|---:|"]
     lines += [f"| {name}: training or reuse, evaluation, figure (when last made) | "
               f"{s['wall_s']:.1f} |" for name, s in sections.items()]
-    lines += [f"| training {name} (all sessions) | {t:.1f} |" for name, t in train.items()]
-    lines.append(f"| training, total (all sessions) | {sum(train.values()):.1f} |")
+    lines += [f"| training {name} (all invocations) | {t:.1f} |" for name, t in train.items()]
+    lines.append(f"| training, total (all invocations) | {sum(train.values()):.1f} |")
     if invocation_s is not None:
         lines.append(f"| this invocation | {invocation_s:.1f} |")
     lines.append("")
