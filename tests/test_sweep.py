@@ -276,3 +276,25 @@ def test_a_failing_run_does_not_stop_the_sweep(tmp_path, monkeypatch, capsys):
     captured = capsys.readouterr()
     assert captured.out.count("FAILED  ") == 2
     assert "RuntimeError: XLA ran out of memory" in captured.out
+
+
+def test_run_names_hash_only_values_that_differ_from_their_defaults():
+    """A field added to a config class at its default must not rename existing runs: the hash
+    covers only non-default values."""
+    from hiddpg.presets import make_config
+    from hiddpg.sweep_spec import _non_defaults, config_hash
+
+    plain = make_config("hi-ddpg", "PuckTrajectory2", "paper")
+    pruned = _non_defaults(plain)
+    # the paper's puck high level is LevelConfig's own default: it is left out entirely
+    assert "actor_output" not in pruned["agent"].get("high", {})
+    assert "model_masked" not in pruned["agent"]  # True is its default
+    assert "low" not in pruned["agent"]  # likewise the low level
+    arm = _non_defaults(make_config("hi-ddpg", "ArmObstacle", "paper"))["agent"]["low"]
+    assert arm["lr"] == 5e-4 and "gamma" not in arm
+    linear = make_config("hi-ddpg", "PuckTrajectory2", "paper",
+                         ["agent.high.actor_output=linear"])
+    assert _non_defaults(linear)["agent"]["high"]["actor_output"] == "linear"
+    assert config_hash(linear) != config_hash(plain)
+    assert config_hash(make_config("hi-ddpg", "PuckTrajectory2", "paper",
+                                   ["agent.high.actor_output=tanh"])) == config_hash(plain)

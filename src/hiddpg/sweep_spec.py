@@ -20,6 +20,7 @@ before anything runs.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import itertools
 import json
@@ -30,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from hiddpg import runner
-from hiddpg.configs import TrainConfig, to_dict
+from hiddpg.configs import TrainConfig
 from hiddpg.presets import make_config
 from hiddpg.runs import make_trainer
 
@@ -238,8 +239,30 @@ def _set_string(key: str, value: Any) -> str:
 
 # -- names ------------------------------------------------------------------------------------
 def config_hash(config: TrainConfig) -> str:
-    text = json.dumps(to_dict(config), sort_keys=True, separators=(",", ":"))
+    """A hash of the config's values that differ from their defaults: a field added to a config
+    class later, at its default, leaves the names of existing runs unchanged."""
+    text = json.dumps(_non_defaults(config), sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:HASH_DIGITS]
+
+
+def _non_defaults(value: Any) -> Any:
+    """``to_dict``-like, without the dataclass fields that hold their default."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        out: dict[str, Any] = {"_type": type(value).__name__}
+        for f in dataclasses.fields(value):
+            v = getattr(value, f.name)
+            if f.default is not dataclasses.MISSING:
+                default = f.default
+            elif f.default_factory is not dataclasses.MISSING:
+                default = f.default_factory()
+            else:
+                default = dataclasses.MISSING
+            if default is dataclasses.MISSING or v != default:
+                out[f.name] = _non_defaults(v)
+        return out
+    if isinstance(value, list | tuple):
+        return [_non_defaults(x) for x in value]
+    return value
 
 
 def run_name(config: TrainConfig, grid: tuple[tuple[str, Any], ...] = ()) -> str:

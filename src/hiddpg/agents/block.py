@@ -31,7 +31,7 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
-from hiddpg.agents.networks import Actor, Critic
+from hiddpg.agents.networks import ACTOR_OUTPUTS, Actor, Critic
 from hiddpg.agents.transition import Transition
 
 #: extra action gradient ``(obs, a) -> array shaped like a`` added to ``dQ/da``.
@@ -102,6 +102,7 @@ class DDPGBlock:
     tau: float
     invert_gradients: bool = False
     action_l2: float = 0.0
+    actor_output: str = "tanh"
     actor_net: Actor = field(init=False, repr=False, compare=False)
     critic_net: Critic = field(init=False, repr=False, compare=False)
     actor_tx: optax.GradientTransformation = field(init=False, repr=False, compare=False)
@@ -120,9 +121,12 @@ class DDPGBlock:
             v = getattr(self, name)
             if not (v >= lo and (hi is None or v <= hi)):
                 raise ValueError(f"DDPGBlock.{name}={v!r} out of range [{lo}, {hi or 'inf'}]")
+        if self.actor_output not in ACTOR_OUTPUTS:
+            raise ValueError(f"DDPGBlock.actor_output={self.actor_output!r} must be one of "
+                             f"{ACTOR_OUTPUTS}")
         setattr_ = object.__setattr__
         setattr_(self, "hidden", hidden)
-        setattr_(self, "actor_net", Actor(hidden, self.action_dim))
+        setattr_(self, "actor_net", Actor(hidden, self.action_dim, output=self.actor_output))
         setattr_(self, "critic_net", Critic(hidden))
         setattr_(self, "actor_tx", _adam(self.actor_lr))
         setattr_(self, "critic_tx", _adam(self.critic_lr))
@@ -142,9 +146,16 @@ class DDPGBlock:
         # store the rates as float32 arrays so that scan carries keep one dtype
         return self.set_learning_rates(state, self.actor_lr, self.critic_lr)
 
-    def mu(self, actor_params: Any, obs: jax.Array) -> jax.Array:
-        """The policy ``μ(s|θ^μ)`` in ``[-1, 1]^action_dim`` (any leading batch shape)."""
+    def raw(self, actor_params: Any, obs: jax.Array) -> jax.Array:
+        """The actor network's output: ``tanh``-bounded, or unbounded for a linear output."""
         return self.actor_net.apply(actor_params, obs)
+
+    def mu(self, actor_params: Any, obs: jax.Array) -> jax.Array:
+        """The policy ``μ(s|θ^μ)`` in ``[-1, 1]^action_dim`` (any leading batch shape): the
+        ``tanh`` output, or the linear output clipped to the box. The actor's gradient
+        (:meth:`policy_gradient`) differentiates the unclipped output."""
+        out = self.raw(actor_params, obs)
+        return out if self.actor_output == "tanh" else jnp.clip(out, -1.0, 1.0)
 
     def act(self, state: BlockState, obs: jax.Array) -> jax.Array:
         """The online actor's unit action for ``obs`` (no noise)."""
@@ -201,7 +212,7 @@ class DDPGBlock:
         """Gradient of the actor loss w.r.t. ``θ^μ``: ``−mean_b (dq_da_b · ∂μ(s_b)/∂θ)`` with
         ``dq_da = ∂Q/∂a|a=μ(s) (+ extra_dq_da(obs, μ(s)))``, plus metrics ``actor_loss =
         −mean Q(s, μ(s))`` and ``dq_da_norm`` (mean L2 norm of the total action gradient)."""
-        action, pullback = jax.vjp(lambda p: self.mu(p, obs), state.actor)
+        action, pullback = jax.vjp(lambda p: self.raw(p, obs), state.actor)
         q, dq_da = self.action_gradient(state.critic, obs, action)
         if extra_dq_da is not None:
             dq_da = dq_da + extra_dq_da(obs, action)

@@ -76,6 +76,7 @@ class DDPGAgent:
             obs_dim=self.env.obs_dim, action_dim=self.env.action_dim, hidden=c.hidden,
             actor_lr=c.actor_lr, critic_lr=c.critic_lr, gamma=c.gamma, tau=c.tau,
             invert_gradients=c.invert_gradients, action_l2=c.action_l2,
+            actor_output=c.actor_output,
         ))
 
     @property

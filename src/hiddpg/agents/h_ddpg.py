@@ -131,7 +131,8 @@ class HDDPG:
         setattr_(self, "block", DDPGBlock(
             obs_dim=self.env.obs_dim, action_dim=self.patterns.actor_dim, hidden=s.hidden,
             actor_lr=s.actor_lr, critic_lr=s.critic_lr, gamma=s.gamma, tau=s.tau,
-            invert_gradients=s.invert_gradients, action_l2=s.action_l2))
+            invert_gradients=s.invert_gradients, action_l2=s.action_l2,
+            actor_output=s.actor_output))
         setattr_(self, "meta_net", MLP(c.meta.hidden, self.n_skills, FINAL_INIT_SCALE))
         setattr_(self, "meta_tx", optax.adam(c.meta.lr))
 

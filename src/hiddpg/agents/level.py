@@ -76,7 +76,8 @@ class Level:
         c = self.config
         return DDPGBlock(obs_dim=self.state_dim + self.context_dim, action_dim=self.action_dim,
                          hidden=tuple(c.hidden), actor_lr=c.lr, critic_lr=c.lr, gamma=c.gamma,
-                         tau=c.tau, invert_gradients=c.invert_gradients, action_l2=c.action_l2)
+                         tau=c.tau, invert_gradients=c.invert_gradients, action_l2=c.action_l2,
+                         actor_output=c.actor_output)
 
     @property
     def model(self) -> DynamicsModel:

@@ -52,25 +52,34 @@ def _final(size: int, scale: float | None) -> nn.Dense:
                     name="out")
 
 
+#: the actor output layers: "tanh" [spec §1] or "linear" [paper §II-D: "the output units
+#: have linear activation"]
+ACTOR_OUTPUTS = ("tanh", "linear")
+
+
 class Actor(nn.Module):
-    """Deterministic policy ``μ(s) ∈ [-1, 1]^action_dim`` (paper eq. 2's ``μ(s|θ^μ)``).
+    """Deterministic policy ``μ(s|θ^μ)`` (paper eq. 2).
 
     Attributes:
         hidden: hidden layer sizes (ReLU).
         action_dim: output size.
         final_init_scale: half-width of the final layer's uniform init.
+        output: ``"tanh"`` (in ``[-1, 1]``) or ``"linear"`` (unbounded; the block clips it to
+            the unit box wherever the action is used, see :class:`hiddpg.agents.block.DDPGBlock`).
     """
 
     hidden: Sequence[int]
     action_dim: int
     final_init_scale: float = FINAL_INIT_SCALE
+    output: str = "tanh"
 
     @nn.compact
     def __call__(self, obs: jax.Array) -> jax.Array:
         x = obs
         for i, size in enumerate(self.hidden):
             x = nn.relu(_dense(size, f"hidden_{i}")(x))
-        return jnp.tanh(_final(self.action_dim, self.final_init_scale)(x))
+        out = _final(self.action_dim, self.final_init_scale)(x)
+        return jnp.tanh(out) if self.output == "tanh" else out
 
 
 class Critic(nn.Module):

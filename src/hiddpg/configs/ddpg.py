@@ -83,6 +83,16 @@ class ActorCriticConfig(ReplayLearnerConfig):
     end_is_terminal: bool = False
     """No bootstrap at the end of any episode, time limit included (the paper's arm rule,
     §III-B) [decision per task; False: time-limit ends bootstrap, spec §3]."""
+    actor_output: Literal["tanh", "linear"] = "tanh"
+    """The actor's output layer: ``tanh`` into the unit box [spec §1], or ``linear``, clipped
+    to the box wherever the action is used and differentiated unclipped in the policy
+    gradient (the paper, §II-D: "the output units have linear activation")."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.actor_output not in ("tanh", "linear"):
+            raise ValueError(f"{type(self).__name__}.actor_output={self.actor_output!r} must be "
+                             "'tanh' or 'linear'")
 
 
 @dataclass(frozen=True)
