@@ -2,7 +2,7 @@
 
 A shell module (needs Pillow, the ``plot`` extra). A :class:`Scene` draws the static part of a
 task once (the puck's reference trajectory and goals, the obstacle, the arm's target) and then
-each frame on a copy of it, so a 75-step GIF takes a few tens of milliseconds to draw.
+each frame on a copy of it, so a frame costs only the drawing of what moves.
 
 Frames can carry an :class:`Overlay`: a hierarchical agent's goals (the active one highlighted),
 the trail of positions so far, the points where the agent switched goals, lines of text, and a

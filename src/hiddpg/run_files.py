@@ -74,7 +74,7 @@ def _holder_text() -> str:
 
 
 def describe_holder(text: str) -> str:
-    """``pid 123 on host h since 2026-…`` from a lock file's text (best effort)."""
+    """``pid 123 on host h since <local time> (command)`` from a lock file's text (best effort)."""
     try:
         h = json.loads(text)
         return f"pid {h['pid']} on host {h['host']} since {h['since']} ({h['command']})"

@@ -13,8 +13,8 @@ comparable with the others)::
   omitted on tasks without a reference plan;
 * a uniformly random policy's (:func:`random_policy_return`): the mean over
   :data:`RANDOM_EPISODES` episodes keyed ``split(PRNGKey(RANDOM_KEY), RANDOM_EPISODES)``. One
-  random episode per seed would be no scale: its return scatters by about half its mean on
-  the puck tasks (std 30 around -65 on PuckTrajectory1); the mean of 1000 is within about 1.
+  random episode per seed would be no scale, since a random episode's return scatters widely;
+  the mean over many episodes is a steady one.
 
 Both baselines are computed on the run's task with its env overrides, each as one jitted
 rollout compiled once per task and overrides in this process.
@@ -36,7 +36,7 @@ from hiddpg.plan import plural
 from hiddpg.runs import Run
 
 #: The random policy's mean is over this many episodes, keyed
-#: ``split(PRNGKey(RANDOM_KEY), RANDOM_EPISODES)`` (a vmapped rollout: milliseconds).
+#: ``split(PRNGKey(RANDOM_KEY), RANDOM_EPISODES)`` (one vmapped rollout, cheap next to training).
 RANDOM_KEY = 0
 RANDOM_EPISODES = 1000
 #: The metrics.csv column of the evaluation's environment return.

@@ -15,7 +15,7 @@ from hiddpg.envs.base import Environment
 #: Bound of observation entries no rule covers (finite, so ``check_env`` does not warn).
 UNBOUNDED = 1.0e4
 #: Bound on the arm's joint speeds in the observation box, rad/s, times ``max(1, force_scale)``
-#: [decision]: the fastest movement found with on/off activations is ~17 rad/s.
+#: [decision; docs/environments.md]: well above the fastest joint movement the muscles produce.
 ARM_MAX_SPEED = 50.0
 
 

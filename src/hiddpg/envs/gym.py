@@ -45,9 +45,9 @@ class _Program:
     """The jitted ``reset`` and ``step`` of one core and one params layout, shared by every
     adapter instance with that layout (see :func:`_program`).
 
-    Two things keep a Python-level step cheap (~50 µs): the params travel as one flat array
-    (``ravel_pytree``) instead of ~35 leaves, and the step's outputs (obs, reward, flags, info)
-    come back to the host packed in one vector that is split again with numpy.
+    Two things keep a Python-level step cheap (docs/performance.md): the params travel as one
+    flat array (``ravel_pytree``) instead of ~35 leaves, and the step's outputs (obs, reward,
+    flags, info) come back to the host packed in one vector that is split again with numpy.
     """
 
     def __init__(self, core: Environment, params: Any) -> None:

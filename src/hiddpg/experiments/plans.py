@@ -9,9 +9,8 @@ goals fitted by Adam on the differentiable rollout (from the mean reference goal
 cosine-decayed, clipped to the goal bounds), the best set kept.
 
 It answers whether the reference plan — the one the paper's claims 1-2 expect the high level
-to find — is the optimum of the task's return: with ``tracking_weight = 2`` and the paper's
-switch cost it is, on every trajectory task and by at least 5; with ``tracking_weight = 1``
-PuckTrajectory3's plans with fewer goals return more (docs/environments.md).
+to find — is the optimum of the task's return, the question that sets ``tracking_weight``
+(the answers per task and weight: docs/environments.md).
 """
 
 from __future__ import annotations
