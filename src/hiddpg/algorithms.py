@@ -119,7 +119,9 @@ def _h_ddpg(config: HDDPGConfig, env: Any) -> Any:
 
 
 def _presets(stem: str) -> dict[str, str]:
-    return {p: f"hiddpg.presets:{stem}_{p}" for p in ("paper", "quick")}
+    return {"paper": f"hiddpg.presets:{stem}_paper",
+            "paper+": f"hiddpg.variants:{stem}_paper_plus",
+            "quick": f"hiddpg.presets:{stem}_quick"}
 
 
 for _algorithm in (

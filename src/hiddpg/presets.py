@@ -3,6 +3,8 @@
 * ``paper``: the paper's algorithm and hyper-parameters for the task's family (puck or arm; a
   user's ``custom`` task gets the puck values), the spec's decisions where the paper is silent,
   and nothing else: no stabiliser, no extension (docs/algorithms.md, "The paper preset");
+* ``paper+``: ``paper`` plus the generic changes of :data:`hiddpg.variants.PAPER_PLUS`, built
+  in :mod:`hiddpg.variants`, on the paper's budget;
 * ``quick``: small networks and budgets on top of the stabilised configuration
   (:func:`ddpg_stable`, ...: the paper's values plus the stabilisers and per-task choices of
   docs/algorithms.md, "Decisions that make learning work"), for the README's main job, CI and
@@ -35,7 +37,9 @@ from hiddpg.configs import (
 from hiddpg.envs import TASKS, task_name
 from hiddpg.overrides import apply_overrides
 
-PRESETS = ("paper", "quick")
+PRESETS = ("paper", "paper+", "quick")
+#: presets that train on another preset's budget (episodes, evaluation, chunks).
+BUDGET_OF = {"paper+": "paper"}
 
 #: Stabilisers of the stabilised configuration's actors: without them ``tanh`` saturates within
 #: a few hundred episodes [decision; docs/algorithms.md, "Decisions that make learning work"].
@@ -245,7 +249,7 @@ def make_config(
         raise ValueError(f"unknown preset {preset!r}; choose one of {list(PRESETS)}")
     task = task_name(task)
     agent = algorithm.preset(preset, task)
-    episodes, eval_every, chunk = dict(family_values(task).budgets)[preset]
+    episodes, eval_every, chunk = dict(family_values(task).budgets)[BUDGET_OF.get(preset, preset)]
     cfg = TrainConfig(algo=algo, task=task, agent=agent, episodes=episodes,
                       eval_every=eval_every, chunk_episodes=chunk, preset=preset)
     return algorithm.finished(apply_overrides(cfg, sets), sets)

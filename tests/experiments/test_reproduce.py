@@ -73,6 +73,17 @@ def test_fig4_writes_figures_and_a_report_whose_numbers_parse(reproduced):
              if "training" in r[0] or "fig4" in r[0]}
     assert all(v and v[0] > 0 for v in times.values())
     assert report.parse_numbers(report.budget_table().splitlines()[2])[0] == 3  # quick seeds
+    assert text.startswith("# HI-DDPG reproduction: variant quick, quick scale")
+    assert json.loads((reproduced / "sections" / "fig4.json").read_text())["variant"] == "quick"
+
+
+def test_every_figure_names_its_variant_at_its_foot(tmp_path):
+    plt = report.pyplot()
+    fig = plt.figure()
+    note = Context(tmp_path, scale="paper", variant="paper+").note()
+    report.save_figure(fig, tmp_path / "f", note)
+    assert [t.get_text() for t in fig.texts] == [note]
+    assert note.startswith("variant paper+: the paper") and note.endswith("(paper scale)")
 
 
 def test_second_invocation_reuses_the_runs(reproduced, capsys):
@@ -252,13 +263,15 @@ def test_bar_history_counts_each_snapshot():
     assert bar_history(snaps, ref, steps, 4) == [(10, 0), (20, 1), (30, 1)]
 
 
-def test_paper_scale_trajectory_runs_get_the_critic_durations_and_6000_episodes(tmp_path):
-    """Paper scale: HI-DDPG on PuckTrajectory1-3 with ``CRITIC_DURATIONS`` for 6000 episodes,
-    on ArmObstacle with ``ARM_HIGH_CRITIC``; the other tasks, the other algorithms and the
-    quick scale keep the presets' budgets."""
-    from hiddpg.experiments.common import budget_table
+def test_extended_variant_gets_the_critic_durations_and_6000_episodes(tmp_path):
+    """Variant ``extended`` at paper scale: HI-DDPG on PuckTrajectory1-3 with
+    ``CRITIC_DURATIONS`` for 6000 episodes, on ArmObstacle with ``ARM_HIGH_CRITIC``; the other
+    tasks, the other algorithms and the quick scale keep the presets' budgets."""
+    from hiddpg.experiments.common import variant_table
 
-    paper, quick = Context(tmp_path, scale="paper"), Context(tmp_path, scale="quick")
+    paper = Context(tmp_path, scale="paper", variant="extended")
+    quick = Context(tmp_path, scale="quick")
+    assert quick.variant == "quick"
     for task in ("PuckTrajectory1", "hiddpg/PuckTrajectory3-v0"):
         cfg = paper.config("hi-ddpg", task)
         assert (cfg.episodes, cfg.agent.choice.kind) == (6000, "critic-durations")
@@ -268,7 +281,7 @@ def test_paper_scale_trajectory_runs_get_the_critic_durations_and_6000_episodes(
         assert (small.episodes, small.agent.choice.kind) == (1500, "hold")
     for task in ("PuckObstacle", "ArmObstacle"):
         cfg = paper.config("hi-ddpg", task)
-        assert (cfg.episodes, cfg.agent.choice.kind) == (3000, "actor")
+        assert (cfg.episodes, cfg.agent.choice.kind, cfg.preset) == (3000, "actor", "quick")
     # ArmObstacle: hindsight actions and the Huber high critic for both HI-DDPG variants only
     for algo in ("hi-ddpg", "hi-ddpg-wo-model"):
         agent = paper.config(algo, "ArmObstacle").agent
@@ -276,6 +289,28 @@ def test_paper_scale_trajectory_runs_get_the_critic_durations_and_6000_episodes(
             ActionHindsight(1.0), HuberLoss(10.0, 3.0, 2160), None)
         assert quick.config(algo, "ArmObstacle").agent.high.huber is None
         assert paper.config(algo, "PuckObstacle").agent.high_hindsight is None
-    row = [r for r in budget_table().splitlines() if "PuckTrajectory1-3" in r]
-    assert len(row) == 1 and "choice=critic-durations" in row[0]
-    assert report.parse_numbers(row[0])[2:4] == [15, 6000]  # after PuckTrajectory1-3
+    row = [r for r in variant_table().splitlines() if r.startswith("| extended")]
+    assert len(row) == 1 and "choice=critic-durations" in row[0] and "trajectory 6000" in row[0]
+
+
+@pytest.mark.parametrize("variant", ["paper", "paper+"])
+def test_paper_variants_train_the_preset_itself_on_15_seeds(tmp_path, variant):
+    """``--variant paper`` / ``paper+`` at paper scale: every run is ``make_config`` of that
+    preset with only the budget's episodes, evaluation and chunks set, on seeds 0-14; nothing
+    of the quick preset or of ``extended`` leaks in."""
+    ctx = Context(tmp_path, scale="paper", variant=variant)
+    for algo in ("ddpg", "hi-ddpg", "hi-ddpg-wo-model", "h-ddpg"):
+        for task in ("PuckTrajectory2", "PuckObstacle", "ArmObstacle"):
+            cfg = ctx.config(algo, task)
+            want = make_config(algo, task, variant,
+                               ["eval_every=20", "chunk_episodes=250"])
+            assert cfg == want and cfg.episodes == 3000 and cfg.preset == variant
+            assert ctx.seed_list(task) == list(range(15))
+    assert ctx.note().startswith(f"variant {variant}: the paper")
+
+
+def test_unknown_variant_is_refused(tmp_path, capsys):
+    with pytest.raises(ValueError, match="variant='huge' must be one of"):
+        Context(tmp_path, variant="huge")
+    assert reproduce.main(["fig4", "--variant", "huge"]) == 2
+    assert "invalid choice: 'huge'" in capsys.readouterr().err

@@ -2,14 +2,17 @@
 
 ::
 
-    hiddpg reproduce {fig3,fig4,fig5,fig6,fig7,fig8,all} [--scale quick|paper] [--seeds N]
+    hiddpg reproduce {fig3,fig4,fig5,fig6,fig7,fig8,all} [--scale quick|paper]
+                     [--variant quick|paper|paper+|extended] [--seeds N]
                      [--out DIR] [--episodes N] [--set KEY=VALUE ...]
 
 Runs go to ``DIR/runs/<algo>-<task>/`` and are shared between figures; every run on disk is
 reused (a finished one as is, an interrupted one resumed), so an invocation that is killed
 continues where it stopped when run again. Figures go to ``DIR/figures/figN.png|pdf``, the
-report to ``DIR/report.md`` (default ``DIR``: ``results/<scale>``). ``--scale quick`` takes
-minutes; ``--scale paper`` (15 seeds, the paper's budgets) takes hours.
+report to ``DIR/report.md`` (default ``DIR``: ``results/<scale>/<variant>``). ``--scale quick``
+takes minutes; ``--scale paper`` (15 seeds, the paper's budgets) takes hours. ``--variant``
+says what is trained (default: ``quick`` at quick scale, ``paper`` at paper scale); every
+figure and the report name it.
 """
 
 from __future__ import annotations
@@ -21,7 +24,14 @@ from collections.abc import Callable, Sequence
 
 from hiddpg.commands.common import Parser as _Parser
 from hiddpg.commands.common import UsageError, report_error, run_command
-from hiddpg.experiments.common import SCALES, Context, budget_table
+from hiddpg.experiments.common import (
+    DEFAULT_VARIANT,
+    REPRODUCE_VARIANTS,
+    SCALES,
+    Context,
+    budget_table,
+    variant_table,
+)
 from hiddpg.experiments.rundata import ExperimentError
 from hiddpg.run_files import RunFileError, RunLockedError
 from hiddpg.stopping import on_stop
@@ -33,13 +43,19 @@ FIGURES = ("fig3", "fig4", "fig5", "fig6", "fig7", "fig8")
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog=PROG, formatter_class=argparse.RawDescriptionHelpFormatter,
                 description="Reproduce the paper's figures; reuse or resume runs on disk.",
-                epilog="budgets per scale:\n" + budget_table())
+                epilog="budgets per scale:\n" + budget_table() + "\n\nvariants:\n"
+                + variant_table())
     p.add_argument("figure", choices=(*FIGURES, "all"), help="which figure, or all")
     p.add_argument("--scale", choices=SCALES, default="quick",
                    help="quick (minutes, default) or paper (15 seeds, hours; resumable)")
+    p.add_argument("--variant", choices=list(REPRODUCE_VARIANTS), default=None,
+                   help="what to train: quick, paper (the paper as written), paper+ (the paper "
+                        "plus docs/diagnosis.md's changes) or extended (default: quick at "
+                        "quick scale, paper at paper scale)")
     p.add_argument("--seeds", type=int, default=None,
                    help="runs per method (seeds 0..N-1; default: the scale's)")
-    p.add_argument("--out", default=None, help="output directory (default results/<scale>)")
+    p.add_argument("--out", default=None,
+                   help="output directory (default results/<scale>/<variant>)")
     p.add_argument("--episodes", type=int, default=None,
                    help="training episodes of every run (default: the scale's budget)")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
@@ -68,8 +84,9 @@ def _context(args: argparse.Namespace) -> Context:
     if args.episodes is not None and args.episodes < 1:
         raise UsageError(f"--episodes {args.episodes} must be >= 1")
     tasks = tuple(t for t in (args.tasks or "").split(",") if t) or None
-    ctx = Context(out=args.out or f"results/{args.scale}", scale=args.scale,
-                  seeds=args.seeds, episodes=args.episodes, sets=tuple(args.sets),
+    variant = args.variant or DEFAULT_VARIANT[args.scale]
+    ctx = Context(out=args.out or f"results/{args.scale}/{variant}", scale=args.scale,
+                  variant=variant, seeds=args.seeds, episodes=args.episodes, sets=tuple(args.sets),
                   tasks=tasks)
     ctx.config("hi-ddpg", "PuckTrajectory1")  # a bad --set fails here, before training
     return ctx
@@ -86,7 +103,7 @@ def _reproduce(args: argparse.Namespace, ctx: Context) -> int:
     try:
         with stopped:
             for name in figures:
-                ctx.say(f"== {name} ({ctx.scale} scale) ==")
+                ctx.say(f"== {name}: {ctx.note()} ==")
                 section = runners[name](ctx)
                 ctx.say(f"{name}: {', '.join(section['figures'])} ({section['wall_s']:.1f} s)")
                 write_report(ctx, time.perf_counter() - t0)

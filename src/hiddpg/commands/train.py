@@ -2,14 +2,14 @@
 
 ::
 
-    hiddpg train ALGO TASK [--preset quick|paper] [--seeds S] [--episodes N]
+    hiddpg train ALGO TASK [--preset quick|paper|paper+] [--seeds S] [--episodes N]
                  [--set key=value ...] [--out DIR] [--name NAME]
     hiddpg train --resume DIR [--episodes N]
 
 A bare ``hiddpg train ALGO TASK`` trains the quick preset on seeds 0-4 (minutes);
-``--preset paper`` is the paper's budget on its 15 seeds 0-14 (hours on two cores). Before
-training the run says what it will do (seeds, episodes, environment steps, checkpoint size)
-and, after its first chunk, how long it will take.
+``--preset paper`` (or ``paper+``) is the paper's budget on its 15 seeds 0-14 (hours on two
+cores). Before training the run says what it will do (seeds, episodes, environment steps,
+checkpoint size) and, after its first chunk, how long it will take.
 
 Every config or path error (unknown algorithm, task or ``--set`` key, a value out of range,
 bad seeds, a ``--name`` that is not a plain name) is one line on stderr and exit code 2,
@@ -62,11 +62,12 @@ def build_parser() -> argparse.ArgumentParser:
                    "environment as module:Class (imported and registered)")
     p.add_argument("--seeds", default=None,
                    help="seeds: a range '0-14', a list '0,3,5' or one '7' (default: 0-4 for "
-                   "the quick preset, the paper's 0-14 for the paper preset)")
+                   "the quick preset, the paper's 0-14 for paper and paper+)")
     p.add_argument("--episodes", type=int, default=None,
                    help="training episodes per seed (default: the preset's)")
     p.add_argument("--preset", default=None,
-                   help="quick (default: minutes) or paper (the paper's budget: hours)")
+                   help="quick (default: minutes), paper (the paper as written, its budget: "
+                   "hours) or paper+ (the paper plus the changes of docs/diagnosis.md)")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                    help="override a config field, e.g. agent.hidden=[64,64] (repeatable)")
     p.add_argument("--out", default="runs", help="parent directory of runs (default runs/)")
@@ -85,7 +86,7 @@ def _as_flag(err: ValueError, name: str) -> UsageError:
 
 
 #: the default seeds of each preset: a short look at several seeds, or the paper's 15 runs.
-DEFAULT_SEEDS = {"quick": "0-4", "paper": "0-14"}
+DEFAULT_SEEDS = {"quick": "0-4", "paper": "0-14", "paper+": "0-14"}
 DEFAULT_PRESET = "quick"
 #: what a run name may be: one directory inside ``--out``.
 NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9._+=@-]*")

@@ -126,7 +126,7 @@ def fig6(ctx: Context) -> dict:
     right.legend(fontsize=7, loc="upper left"), twin.legend(fontsize=7, loc="lower right")
     fig.suptitle("Fig. 6B: HI-DDPG on ArmObstacle")
     fig.tight_layout()
-    figures = save_figure(fig, ctx.figure_stem("fig6"))
+    figures = save_figure(fig, ctx.figure_stem("fig6"), ctx.note())
     summary = stats.summarize(ret)
     switches = final.metrics["switches"]
     numbers = {"success": success.tolist(), "collision": collision.tolist(),

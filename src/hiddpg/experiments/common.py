@@ -44,71 +44,105 @@ EVAL_KEY = 0
 
 @dataclass(frozen=True)
 class Budget:
-    """The training budget of one run (everything else is the preset's)."""
+    """The training budget of one run at one scale (what it trains is the variant's)."""
 
-    preset: str
     seeds: int
-    episodes: int
+    episodes: int | None
+    """Episodes per run; ``None``: the preset's (the paper's budget)."""
     eval_every: int
     chunk_episodes: int
-    hi_ddpg_sets: tuple[str, ...] = ()
-    """``--set`` overrides of the HI-DDPG runs (``hi-ddpg``, ``hi-ddpg-wo-model``)."""
 
 
-#: (scale, task group: ``budget_group``) -> budget. ``quick``: the quick preset's own budget,
-#: 3 seeds. ``paper``: the paper's 15 runs per method, trained with the quick preset's networks
-#: and rates [decision; docs/results.md says why and what the paper preset gives].
+#: (scale, task group: ``budget_group``) -> budget. ``quick``: minutes, 3 seeds; ``paper``:
+#: the paper's 15 runs per method on the preset's episodes.
 BUDGETS: dict[tuple[str, str], Budget] = {
-    ("quick", "puck"): Budget("quick", seeds=3, episodes=1500, eval_every=50,
-                              chunk_episodes=250),
-    ("quick", "arm"): Budget("quick", seeds=3, episodes=1500, eval_every=50,
-                             chunk_episodes=250),
-    ("paper", "puck"): Budget("quick", seeds=15, episodes=3000, eval_every=20,
-                              chunk_episodes=250),
-    ("paper", "trajectory"): Budget("quick", seeds=15, episodes=6000, eval_every=20,
-                                    chunk_episodes=250, hi_ddpg_sets=CRITIC_DURATIONS),
-    ("paper", "arm"): Budget("quick", seeds=15, episodes=3000, eval_every=20,
-                             chunk_episodes=250, hi_ddpg_sets=ARM_HIGH_CRITIC),
+    ("quick", "puck"): Budget(seeds=3, episodes=1500, eval_every=50, chunk_episodes=250),
+    ("quick", "arm"): Budget(seeds=3, episodes=1500, eval_every=50, chunk_episodes=250),
+    ("paper", "puck"): Budget(seeds=15, episodes=None, eval_every=20, chunk_episodes=250),
+    ("paper", "arm"): Budget(seeds=15, episodes=None, eval_every=20, chunk_episodes=250),
 }
-"""At paper scale HI-DDPG on the trajectory tasks gets the critic-chosen durations
-(``presets.CRITIC_DURATIONS``) and twice the paper's episodes, on ArmObstacle
-``presets.ARM_HIGH_CRITIC`` [decision; docs/results.md]. A (scale, group) missing here falls back
-to the task's family (``budget_group``)."""
 
 
-GROUP_TASKS = {"trajectory": "PuckTrajectory1-3"}
+@dataclass(frozen=True)
+class Variant:
+    """What ``hiddpg reproduce --variant NAME`` trains: a preset, plus ``--set`` overrides of
+    its HI-DDPG runs and episode counts per task group (at paper scale)."""
+
+    name: str
+    preset: str
+    summary: str
+    hi_ddpg_sets: tuple[tuple[str, tuple[str, ...]], ...] = ()
+    """(task group, ``--set`` list) of the HI-DDPG runs (``hi-ddpg``, ``hi-ddpg-wo-model``)."""
+    paper_episodes: tuple[tuple[str, int], ...] = ()
+    """(task group, episodes) at paper scale, where they differ from the preset's."""
+
+    def sets_for(self, group: str) -> tuple[str, ...]:
+        return dict(self.hi_ddpg_sets).get(group, ())
+
+    def describe(self) -> str:
+        """One line: the variant and what it adds (figures, report)."""
+        if self.name in ("paper", "paper+"):
+            from hiddpg.variants import describe
+
+            return describe(self.name)
+        return f"{self.name}: {self.summary}"
 
 
-def budget_group(scale: str, task: str) -> str:
-    """The key of ``task``'s budget at ``scale``: ``"trajectory"`` (PuckTrajectory*) where
-    that scale has its own, else the family (``"puck"`` or ``"arm"``)."""
+REPRODUCE_VARIANTS: dict[str, Variant] = {v.name: v for v in (
+    Variant("quick", "quick", "the quick preset (the stabilised configuration with small "
+            "networks; docs/algorithms.md)"),
+    Variant("paper", "paper", "the paper as written"),
+    Variant("paper+", "paper+", "the paper plus the changes of docs/diagnosis.md"),
+    Variant("extended", "quick",
+            "the quick preset plus, for HI-DDPG, the critic-chosen durations, hindsight goals "
+            "and a rest term on the trajectory tasks (6000 episodes) and hindsight actions and "
+            "a Huber loss for the high critic on ArmObstacle",
+            hi_ddpg_sets=(("trajectory", CRITIC_DURATIONS), ("arm", ARM_HIGH_CRITIC)),
+            paper_episodes=(("trajectory", 6000), ("puck", 3000), ("arm", 3000))),
+)}
+"""``quick`` is the default at quick scale, ``paper`` at paper scale."""
+DEFAULT_VARIANT = {"quick": "quick", "paper": "paper"}
+
+
+def budget_group(task: str) -> str:
+    """The task's group: ``"trajectory"`` (PuckTrajectory*), else its family (``"puck"``,
+    ``"arm"``); budgets fall back from ``trajectory`` to ``puck``."""
     from hiddpg.envs import task_name
     from hiddpg.presets import SWITCHING_TASKS, task_family
 
-    if task_name(task) in SWITCHING_TASKS and (scale, "trajectory") in BUDGETS:
-        return "trajectory"
-    return task_family(task)
+    return "trajectory" if task_name(task) in SWITCHING_TASKS else task_family(task)
 
 
 def budget_table() -> str:
-    """The budgets as a markdown table (README, report)."""
-    rows = ["| scale | tasks | preset | seeds | episodes | eval every | chunk | HI-DDPG sets |",
-            "|---|---|---|---:|---:|---:|---:|---|"]
+    """The budgets as a markdown table (``--help``, report)."""
+    rows = ["| scale | tasks | seeds | episodes | eval every | chunk |",
+            "|---|---|---:|---:|---:|---:|"]
     for (scale, group), b in BUDGETS.items():
-        sets = " ".join(f"`{s}`" for s in b.hi_ddpg_sets) or "-"
-        tasks = ("puck, but PuckTrajectory" if group == "puck" and (scale, "trajectory")
-                 in BUDGETS else GROUP_TASKS.get(group, group))
-        rows.append(f"| {scale} | {tasks} | {b.preset} | {b.seeds} | "
-                    f"{b.episodes} | {b.eval_every} | {b.chunk_episodes} | {sets} |")
+        episodes = b.episodes or "the preset's"
+        rows.append(f"| {scale} | {group} | {b.seeds} | {episodes} | {b.eval_every} | "
+                    f"{b.chunk_episodes} |")
+    return "\n".join(rows)
+
+
+def variant_table() -> str:
+    """The variants as a markdown table (``--help``, report)."""
+    rows = ["| variant | preset | HI-DDPG adds | episodes at paper scale |", "|---|---|---|---|"]
+    for v in REPRODUCE_VARIANTS.values():
+        sets = "; ".join(f"{g}: " + " ".join(f"`{s}`" for s in ss) for g, ss in v.hi_ddpg_sets)
+        episodes = ", ".join(f"{g} {n}" for g, n in v.paper_episodes) or "the preset's"
+        rows.append(f"| {v.name} | {v.preset} | {sets or '-'} | {episodes} |")
     return "\n".join(rows)
 
 
 @dataclass
 class Context:
-    """One ``hiddpg reproduce`` invocation: where, at what scale, with which overrides."""
+    """One ``hiddpg reproduce`` invocation: where, at what scale, which variant, with which
+    overrides."""
 
     out: Path
     scale: str = "quick"
+    variant: str | None = None
+    """A name in :data:`REPRODUCE_VARIANTS`; ``None``: the scale's default."""
     seeds: int | None = None
     """Seeds per run (0..seeds-1); ``None``: the budget's."""
     episodes: int | None = None
@@ -123,6 +157,10 @@ class Context:
     def __post_init__(self) -> None:
         if self.scale not in SCALES:
             raise ValueError(f"scale={self.scale!r} must be one of {SCALES}")
+        self.variant = self.variant or DEFAULT_VARIANT[self.scale]
+        if self.variant not in REPRODUCE_VARIANTS:
+            raise ValueError(f"variant={self.variant!r} must be one of "
+                             f"{list(REPRODUCE_VARIANTS)}")
         if self.seeds is not None and self.seeds < 1:
             raise ValueError(f"seeds={self.seeds} must be >= 1")
         self.out = Path(self.out)
@@ -130,8 +168,17 @@ class Context:
     def say(self, message: str) -> None:
         print(message, file=self.log or sys.stderr, flush=True)
 
+    @property
+    def spec(self) -> Variant:
+        return REPRODUCE_VARIANTS[self.variant]
+
     def budget(self, task: str) -> Budget:
-        return BUDGETS[(self.scale, budget_group(self.scale, task))]
+        group = budget_group(task)
+        return BUDGETS.get((self.scale, group)) or BUDGETS[(self.scale, _family(task))]
+
+    def note(self) -> str:
+        """What every figure says it shows: the variant and the scale."""
+        return f"variant {self.spec.describe()} ({self.scale} scale)"
 
     def seed_list(self, task: str) -> list[int]:
         return list(range(self.seeds or self.budget(task).seeds))
@@ -146,18 +193,26 @@ class Context:
         """The ``--set`` list of a run: budget, then the user's overrides."""
         from hiddpg.presets import make_config
 
-        b = self.budget(task)
-        episodes = self.episodes or b.episodes
+        b, v, group = self.budget(task), self.spec, budget_group(task)
+        episodes = (self.episodes or b.episodes
+                    or (dict(v.paper_episodes).get(group) if self.scale == "paper" else None)
+                    or make_config(algo, task, v.preset).episodes)
         sets = [f"episodes={episodes}", f"eval_every={min(b.eval_every, episodes)}",
                 f"chunk_episodes={b.chunk_episodes}"]
         if get_algorithm(algo).config is HIDDPGConfig:
-            sets += list(b.hi_ddpg_sets)
-        return sets + expand_sets(make_config(algo, task, b.preset, sets), self.sets)
+            sets += list(v.sets_for(group))
+        return sets + expand_sets(make_config(algo, task, v.preset, sets), self.sets)
 
     def config(self, algo: str, task: str) -> TrainConfig:
         from hiddpg.presets import make_config
 
-        return make_config(algo, task, self.budget(task).preset, self.train_sets(algo, task))
+        return make_config(algo, task, self.spec.preset, self.train_sets(algo, task))
+
+
+def _family(task: str) -> str:
+    from hiddpg.presets import task_family
+
+    return task_family(task)
 
 
 def expand_sets(config: TrainConfig, sets: tuple[str, ...] | list[str]) -> list[str]:

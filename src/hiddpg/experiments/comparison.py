@@ -232,7 +232,8 @@ def run_comparison(ctx: Context, name: str, algos: Sequence[str] = COMPARED) -> 
                          "stage is cut to the shortest run.")
     comp = compare(runs)
     title = f"Fig. {name[-1]}: {task}, {' vs '.join(runs)}"
-    figures = save_figure(plot_comparison(comp, title), ctx.figure_stem(name))
+    figures = save_figure(plot_comparison(comp, title), ctx.figure_stem(name),
+                          ctx.note())
     numbers = summary_numbers(comp)
     success = success_rates(runs) if task_family(task) == "arm" else None
     if success:

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from hiddpg.experiments.common import BUDGETS, Context, budget_table
+from hiddpg.experiments.common import BUDGETS, Context, budget_table, variant_table
 from hiddpg.runs import PROGRESS_FILE, atomic_write
 
 ORDER = ("fig3", "fig4", "fig5", "fig6", "fig7", "fig8")
@@ -86,10 +86,12 @@ def write_report(ctx: Context, invocation_s: float | None = None) -> Path:
     train = training_wall_time(ctx.out)
     scale_budgets = {f: b for (s, f), b in BUDGETS.items() if s == ctx.scale}
     seeds = ctx.seeds or max(b.seeds for b in scale_budgets.values())
-    lines = [f"# HI-DDPG reproduction ({ctx.scale} scale)", "",
+    lines = [f"# HI-DDPG reproduction: variant {ctx.variant}, {ctx.scale} scale", "",
+             f"Variant {ctx.spec.describe()}.", "",
              f"Written by `hiddpg reproduce` on {time.strftime('%Y-%m-%d %H:%M:%S')}; "
-             f"{seeds} seeds per method; the run (seed) is the unit of every statistic.", "",
-             "## Budgets", "", budget_table(), ""]
+             f"{seeds} seeds per method (seeds 0-{seeds - 1}); the run (seed) is the unit of "
+             "every statistic.", "",
+             "## Budgets", "", budget_table(), "", "## Variants", "", variant_table(), ""]
     if ctx.episodes or ctx.sets or ctx.seeds:
         lines += [f"Overrides of this output: seeds={ctx.seeds}, episodes={ctx.episodes}, "
                   f"set={list(ctx.sets)}.", ""]
@@ -124,10 +126,13 @@ def pyplot() -> Any:
     return plt
 
 
-def save_figure(fig: Any, stem: Path) -> list[Path]:
+def save_figure(fig: Any, stem: Path, note: str | None = None) -> list[Path]:
     """Write ``fig`` as ``stem.png`` and ``stem.pdf`` (the suffixes appended to the whole name,
-    so ``a.v2`` gives ``a.v2.png``); close it; return the two paths."""
+    so ``a.v2`` gives ``a.v2.png``), with ``note`` (what the figure shows: the variant) as a
+    line at its foot; close it; return the two paths."""
     plt = pyplot()
+    if note:
+        fig.text(0.01, 0.0, note, fontsize=7, ha="left", va="top", wrap=True)
     stem.parent.mkdir(parents=True, exist_ok=True)
     paths = [stem.with_name(stem.name + ".png"), stem.with_name(stem.name + ".pdf")]
     for p in paths:
@@ -138,7 +143,8 @@ def save_figure(fig: Any, stem: Path) -> list[Path]:
 
 def write_section(ctx: Context, name: str, section: dict[str, Any]) -> Path:
     """Store a figure's report section (``title``, ``figures``, ``markdown``, ``numbers``,
-    ``wall_s``) as ``sections/<name>.json``."""
+    ``wall_s``) as ``sections/<name>.json``, with the variant and scale it shows."""
+    section = {**section, "variant": ctx.variant, "scale": ctx.scale}
     path = ctx.out / "sections" / f"{name}.json"
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write(path, (json.dumps(section, indent=2, default=_json_default) + "\n").encode())

@@ -146,7 +146,7 @@ def fig3(ctx: Context) -> dict:
                   f"moving average over {window} episodes)", fontsize=10)
     top.legend(fontsize=8), bottom.legend(fontsize=8)
     bottom.set_xlabel("training episode")
-    figures = save_figure(fig, ctx.figure_stem("fig3"))
+    figures = save_figure(fig, ctx.figure_stem("fig3"), ctx.note())
     tail = max(1, round(FINAL_FRACTION * ret.shape[1]))
     final = stats.summarize(ret[:, -tail:].mean(axis=1))
     final_sw = run.final_snapshot().metrics["switches"]
@@ -222,7 +222,7 @@ def fig4(ctx: Context) -> dict:
                         f"{fmt_pm(ret.mean(), _std(ret))} |")
     fig.suptitle("Fig. 4: HI-DDPG trajectory following (history: rising opacity)")
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    figures = save_figure(fig, ctx.figure_stem("fig4"))
+    figures = save_figure(fig, ctx.figure_stem("fig4"), ctx.note())
     markdown = "\n".join([
         "Distances are in position units, mean ± std over runs, for the final noise-free "
         "policy: to the nearest learned goal, and to the learned goal active at the middle of "
@@ -288,7 +288,7 @@ def fig5(ctx: Context) -> dict:
         ax.set_xlabel("step")
     fig.suptitle("Fig. 5: goals (dashed), low-level actions (solid), iLQR (dotted)")
     fig.tight_layout(rect=(0, 0, 1, 0.96))
-    figures = save_figure(fig, ctx.figure_stem("fig5"))
+    figures = save_figure(fig, ctx.figure_stem("fig5"), ctx.note())
     markdown = "\n".join([
         "iLQR (the standard controller) tracks the drawn run's own goals with its switch "
         "times; RMS is the root-mean-square difference of the normalised actions.", "",

@@ -1,0 +1,131 @@
+"""Named variants of the paper: ``paper`` and ``paper+``.
+
+A variant is data: the ``paper`` preset plus a tuple of named changes. Each :class:`Change`
+is generic (it names a field of every actor-critic block, or of HI-DDPG's schedule, never a
+task) and carries the one-line reason it is there. ``paper`` adds nothing; ``paper+`` adds
+only the changes the diagnosis of the exact preset shows are needed (docs/diagnosis.md), for
+every algorithm, so the same words describe it on every task.
+
+``hiddpg train ALGO TASK --preset paper+`` builds ``paper+``'s config; :data:`CHANGES` holds
+every candidate the diagnosis measured, so a study can ask for one of them by name
+(:func:`apply_changes`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from hiddpg.configs import EagerHighLevel, HIDDPGConfig
+from hiddpg.configs.ddpg import ActorCriticConfig
+
+
+@dataclass(frozen=True)
+class Change:
+    """One generic change to the paper: what it sets, why, and how to apply it."""
+
+    name: str
+    what: str
+    """What it changes, in words (docs, reports, ``hiddpg train --help``)."""
+    apply: Callable[[Any], Any]
+    """The agent config with the change made; configs it does not concern come back equal."""
+
+
+def map_blocks(agent: Any, fn: Callable[[ActorCriticConfig], ActorCriticConfig]) -> Any:
+    """``agent`` with ``fn`` applied to every actor-critic block in it: flat DDPG itself, both
+    HI-DDPG levels, h-DDPG's skills."""
+    if isinstance(agent, ActorCriticConfig):
+        return fn(agent)
+    if not dataclasses.is_dataclass(agent):
+        return agent
+    changed = {f.name: map_blocks(getattr(agent, f.name), fn) for f in dataclasses.fields(agent)
+               if dataclasses.is_dataclass(getattr(agent, f.name))}
+    return dataclasses.replace(agent, **changed) if changed else agent
+
+
+def _blocks(**values: Any) -> Callable[[Any], Any]:
+    return lambda agent: map_blocks(agent, lambda b: dataclasses.replace(b, **values))
+
+
+def _scale_lr(factor: float) -> Callable[[Any], Any]:
+    def scale(block: ActorCriticConfig) -> ActorCriticConfig:
+        rates = {n: getattr(block, n) * factor for n in ("lr", "actor_lr", "critic_lr")
+                 if hasattr(block, n)}
+        return dataclasses.replace(block, **rates)
+
+    return lambda agent: map_blocks(agent, scale)
+
+
+def _eager_high(agent: Any) -> Any:
+    if not isinstance(agent, HIDDPGConfig):
+        return agent
+    return dataclasses.replace(agent, eager_high=EagerHighLevel())
+
+
+#: Every change the diagnosis measures, by name.
+CHANGES: dict[str, Change] = {c.name: c for c in (
+    Change("lr-x5", "learning rates ×5 at every level", _scale_lr(5.0)),
+    Change("lr-x25", "learning rates ×25 at every level", _scale_lr(25.0)),
+    Change("tau-0.01", "target networks follow at τ = 0.01 (paper: silent; spec 0.001)",
+           _blocks(tau=0.01)),
+    Change("invert-gradients", "inverted gradients at the action bounds in every actor's "
+           "update", _blocks(invert_gradients=True)),
+    Change("action-l2", "an action penalty |a|² (weight 1) in every actor's loss",
+           _blocks(action_l2=1.0)),
+    Change("linear-output", "linear actor outputs (the paper's §II-D), clipped where the "
+           "action is used", _blocks(actor_output="linear")),
+    Change("high-every-step", "HI-DDPG's high level learns at every step instead of once per "
+           "segment end (Alg. 1)", _eager_high),
+)}
+
+#: The changes of ``paper+``, in the order they are applied.
+PAPER_PLUS: tuple[str, ...] = ()
+
+#: variant name -> its changes.
+VARIANTS: dict[str, tuple[str, ...]] = {"paper": (), "paper+": PAPER_PLUS}
+
+
+def apply_changes(agent: Any, names: tuple[str, ...] | list[str]) -> Any:
+    """``agent`` with the named changes made in order; an unknown name is an error naming the
+    known ones."""
+    for name in names:
+        if name not in CHANGES:
+            raise ValueError(f"unknown change {name!r}; choose from {sorted(CHANGES)}")
+        agent = CHANGES[name].apply(agent)
+    return agent
+
+
+def describe(variant: str) -> str:
+    """One line naming what ``variant`` is (figures, reports)."""
+    if variant not in VARIANTS:
+        raise ValueError(f"unknown variant {variant!r}; choose one of {list(VARIANTS)}")
+    changes = VARIANTS[variant]
+    if not changes:
+        return f"{variant}: the paper as written"
+    return f"{variant}: the paper plus " + "; ".join(CHANGES[c].what for c in changes)
+
+
+def ddpg_paper_plus(task: str) -> Any:
+    from hiddpg.presets import ddpg_paper
+
+    return apply_changes(ddpg_paper(task), PAPER_PLUS)
+
+
+def hi_ddpg_paper_plus(task: str) -> Any:
+    from hiddpg.presets import hi_ddpg_paper
+
+    return apply_changes(hi_ddpg_paper(task), PAPER_PLUS)
+
+
+def hi_ddpg_wo_model_paper_plus(task: str) -> Any:
+    from hiddpg.presets import hi_ddpg_wo_model_paper
+
+    return apply_changes(hi_ddpg_wo_model_paper(task), PAPER_PLUS)
+
+
+def h_ddpg_paper_plus(task: str) -> Any:
+    from hiddpg.presets import h_ddpg_paper
+
+    return apply_changes(h_ddpg_paper(task), PAPER_PLUS)
