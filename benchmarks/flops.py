@@ -44,9 +44,8 @@ Trainer = Any  # hiddpg.train.Trainer (not imported: this module must not start 
 #
 # Flat DDPG, per env step: one block update (batch 64) + the actor on one observation.
 # HI-DDPG, per env step: one low-level update, one high-level update and both actors on one
-# observation. The paper preset sets ``eager_high.every_step`` (the high level learns every
-# step); with ``"segment"`` it learns at segment ends only, but under ``vmap`` its ``lax.cond``
-# is a select, so its update is still *executed* every step: either way that is what is counted.
+# observation. The paper preset updates the high level at segment ends only (Alg. 1), counted
+# as segments / steps; ``eager_high.every_step`` updates it at every step.
 # SB3 DDPG, per env step: its critic takes [s, a] at the input and its actor loss
 # -Q(s, mu(s)) backpropagates through the critic's weights too (they are computed and discarded):
 #     target F(A) + F(C); critic F(C) + W(C) + X1(C); actor F(A) + F(C) + W(C) + X(C) + W(A) + X1(A)
@@ -203,15 +202,17 @@ def xla_update_flops(algo: str, trainer: Trainer) -> float | None:
             return float(cost["flops"])
 
         if algo == "ddpg":
+            from hiddpg.agents.transition import example
+
             block, b = agent.block, trainer.config.agent.batch_size
-            batch = {"obs": jnp.zeros((b, trainer.env.obs_dim)),
-                     "action": jnp.zeros((b, trainer.env.action_dim)),
-                     "reward": jnp.zeros((b,)), "next_obs": jnp.zeros((b, trainer.env.obs_dim)),
-                     "terminated": jnp.zeros((b,), bool)}
+            one = example(trainer.env.obs_dim, trainer.env.action_dim)
+            batch = jax.tree.map(lambda x: jnp.zeros((b, *x.shape), x.dtype), one)
             return flops(block.update, block.init(key), batch)
         if algo == "h-ddpg":
             return None  # no single update function to analyse; the formula stands alone
-        return sum(flops(level.update, level.init(key), key) for level in (agent.low, agent.high))
+        episode = jnp.zeros((), jnp.int32)
+        return sum(flops(lambda s, k, lv=level: lv.update(s, k, episode=episode),
+                         level.init(key), key) for level in (agent.low, agent.high))
     except Exception as err:  # noqa: BLE001 - a cross-check only
         print(f"  (XLA cost analysis unavailable: {err})")
         return None

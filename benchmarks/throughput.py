@@ -140,7 +140,7 @@ def _every_step(agent) -> bool:
     return agent.eager_high is not None and agent.eager_high.every_step
 
 
-VARIANTS = {"segment": ["agent.eager_high.every_step=false"]}
+VARIANTS = {"every-step": ["agent.eager_high.every_step=true"]}
 
 
 def ours_config(algo: str, episodes: int, repeats: int):
@@ -156,8 +156,9 @@ def ours_config(algo: str, episodes: int, repeats: int):
     return make_config(algo, TASK, "paper", sets)
 
 
-NAMES = {"ddpg": "DDPG (ours)", "hi-ddpg": "HI-DDPG (ours)", "h-ddpg": "h-DDPG (ours)",
-         "hi-ddpg@segment": "HI-DDPG (ours), Alg. 1 schedule: H updates at segment ends"}
+NAMES = {"ddpg": "DDPG (ours)", "hi-ddpg": "HI-DDPG (ours), Alg. 1: H updates at segment ends",
+         "h-ddpg": "h-DDPG (ours)",
+         "hi-ddpg@every-step": "HI-DDPG (ours), H updates at every step (`eager_high`)"}
 
 
 def time_ours(algo: str, seeds: int, episodes: int, repeats: int) -> Row:
@@ -296,10 +297,10 @@ def markdown(rows: list[Row], base: tuple[Row, Row] | None, skip: str, args: arg
         "stays meaningful when other jobs share the cores; CPU/wall is the mean number of "
         "busy cores; load is the 1-minute load average when the row was measured.\n"
         "* Matmul MFLOP per env step by the formula in `benchmarks/flops.py` (HI-DDPG: a low-level "
-        f"update every step and, with the preset's high-level updates at every {high_on}, a "
-        "high-level "
-        "one too; with Alg. 1's schedule (`hi-ddpg@segment`) a high-level update per segment, "
-        "counted from the measured segments per step); cross-checked against XLA's cost "
+        f"update every step and, with the preset's high-level updates at every {high_on} "
+        "(Alg. 1), a high-level update per segment, counted from the measured segments per "
+        "step; with `eager_high.every_step` (`hi-ddpg@every-step`, not the paper) a high-level "
+        "update every step too); cross-checked against XLA's cost "
         "analysis of one update (all ops): "
         f"{checks or 'n/a'}. % of NumPy divides the achieved GFLOP/s by NumPy's float32 "
         "GFLOP/s on the same matmul shapes, measured in a fresh process with one BLAS thread "
