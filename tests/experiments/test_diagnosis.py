@@ -50,6 +50,27 @@ def test_rows_hold_the_last_evaluation_and_the_last_window(tmp_path):
     assert a["reach_error"] == pytest.approx((0.25, 0.0))
     assert "high_q_mean" not in a
     table = diagnosis.markdown(rows).splitlines()
-    assert table[0].startswith("| run | episodes | seeds | eval_env_return | eval_switches")
+    assert table[0].startswith("| run | episodes | seeds | score | vs_paper | eval_env_return")
     assert "high_q_mean" not in table[0]
-    assert table[2].startswith("| paper | 40 | 2 | 40.5 ± 0.71 |")
+    # score: the mean of the (two) evaluations per seed: 30 and 31; paper has no vs_paper
+    assert table[2].startswith("| paper | 40 | 2 | 30.5 ± 0.71 |  | 40.5 ± 0.71 |")
+    assert a["score"] == pytest.approx((30.5, np.std([30, 31], ddof=1)))
+    # b is a shifted by -100 with the same spread: the difference is -100 with a zero-width
+    # Welch interval only if the spread were 0; here t(df=2) * sqrt(0.5/2 + 0.5/2)
+    diff, low, high = b["vs_paper"]
+    half = 4.302652729911275 * np.sqrt(0.25 + 0.25)
+    assert (diff, low, high) == pytest.approx((-100.0, -100.0 - half, -100.0 + half))
+
+
+def test_cut_compares_runs_at_the_same_budget_and_the_curves_are_drawn(tmp_path):
+    write_run(tmp_path / "a", 0.0)
+    (row,) = diagnosis.summarize([str(tmp_path / "a")], window=5, at=20)
+    assert row["episodes"] == 20
+    assert row["eval_env_return"] == pytest.approx((20.5, np.std([20, 21], ddof=1)))
+    # last 5 episodes up to 20: e = 16..20, mean e/10 = 1.8 (seed 0) and 2.8 (seed 1)
+    assert row["env_return"][0] == pytest.approx(2.3)
+    with pytest.raises(ValueError, match="no episode <= 0"):
+        diagnosis.summarize([str(tmp_path / "a")], at=0)
+    out = diagnosis.plot_curves([str(tmp_path)], tmp_path / "c.png", at=30,
+                                lines={"reference plan": 0.0})
+    assert out.read_bytes().startswith(b"\x89PNG")

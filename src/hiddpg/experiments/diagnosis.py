@@ -4,6 +4,8 @@ For a sweep directory (``hiddpg sweep SPEC --out DIR``; its ``sweep.json`` names
 changes) or any run directories, :func:`summarize` gives one row per run with, over its seeds:
 
 * ``eval_env_return``: the last noise-free evaluation's environment return, mean and std;
+* ``score``: the mean of each seed's last ``LAST_EVALS`` evaluations (less noisy than one), and
+  ``vs_paper``: its difference to the unchanged run's (``paper``) with a Welch 95% interval;
 * ``env_return``: the training episodes' environment return over the last ``window`` episodes;
 * ``switches`` of the last evaluation and HI-DDPG's ``reach_error`` (how far a segment ends
   from its goal, training, last ``window`` episodes);
@@ -17,8 +19,8 @@ prints it.
 
 from __future__ import annotations
 
+import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +28,8 @@ import numpy as np
 
 from hiddpg.experiments.rundata import RunData, discover_runs, load_run
 
+#: evaluations averaged per seed for ``score``
+LAST_EVALS = 5
 #: training columns averaged over the last ``window`` episodes of every seed
 WINDOW_COLUMNS = ("env_return", "return", "reach_error", "high_q_mean", "high_dq_da_norm",
                   "low_dq_da_norm")
@@ -49,6 +53,39 @@ def _last_eval(data: RunData, column: str) -> np.ndarray | None:
     return values[:, -1]
 
 
+def cut(data: RunData, at: int | None) -> RunData:
+    """``data`` with its episodes after ``at`` dropped (``None``: unchanged)."""
+    if at is None:
+        return data
+    keep = data.episodes <= at
+    if not keep.any():
+        raise ValueError(f"{data.path} has no episode <= {at}")
+    return RunData(data.path, data.config, data.seeds, data.episodes[keep],
+                   {k: v[:, keep] for k, v in data.metrics.items()})
+
+
+def scores(data: RunData) -> np.ndarray | None:
+    """Per seed: the mean of its last :data:`LAST_EVALS` evaluations' environment return."""
+    if not data.has("eval_env_return"):
+        return None
+    _, values = data.series("eval_env_return")
+    return values[:, -LAST_EVALS:].mean(axis=1)
+
+
+def welch_interval(a: np.ndarray, b: np.ndarray, level: float = 0.95
+                   ) -> tuple[float, float, float]:
+    """``mean(a) - mean(b)`` and its Welch t interval (unequal variances)."""
+    from scipy import stats
+
+    va, vb = a.var(ddof=1) / len(a), b.var(ddof=1) / len(b)
+    diff, se = float(a.mean() - b.mean()), float(np.sqrt(va + vb))
+    if se == 0.0:
+        return diff, diff, diff
+    df = (va + vb) ** 2 / (va**2 / (len(a) - 1) + vb**2 / (len(b) - 1))
+    half = float(stats.t.ppf(0.5 + level / 2, df)) * se
+    return diff, diff - half, diff + half
+
+
 def row(data: RunData, window: int = 200) -> dict[str, Any]:
     """One run's summary (see the module docstring); values are ``(mean, std)`` over seeds."""
     out: dict[str, Any] = {"run": changes(data.path), "episodes": int(data.episodes[-1]),
@@ -57,6 +94,11 @@ def row(data: RunData, window: int = 200) -> dict[str, Any]:
         last = _last_eval(data, column)
         if last is not None:
             out[column] = (float(last.mean()), float(last.std(ddof=1)) if len(last) > 1 else 0.0)
+    per_seed = scores(data)
+    if per_seed is not None:
+        out["score"] = (float(per_seed.mean()),
+                        float(per_seed.std(ddof=1)) if len(per_seed) > 1 else 0.0)
+        out["_scores"] = per_seed
     for column in WINDOW_COLUMNS:
         if data.has(column):
             per_seed = np.nanmean(data.metrics[column][:, -window:], axis=1)
@@ -65,23 +107,89 @@ def row(data: RunData, window: int = 200) -> dict[str, Any]:
     return out
 
 
-def summarize(paths: list[str] | tuple[str, ...], window: int = 200) -> list[dict[str, Any]]:
-    """One :func:`row` per run directory among ``paths`` (directories are searched)."""
-    return [row(load_run(p), window) for p in discover_runs(paths)]
+def summarize(paths: list[str] | tuple[str, ...], window: int = 200,
+              at: int | None = None) -> list[dict[str, Any]]:
+    """One :func:`row` per run directory among ``paths`` (directories are searched), each cut
+    at episode ``at``; rows get ``vs_paper`` where an unchanged (``paper``) run is among them."""
+    rows = [row(cut(load_run(p), at), window) for p in discover_runs(paths)]
+    base = next((r for r in rows if r["run"] == "paper" and "_scores" in r), None)
+    for r in rows:
+        if base is not None and r is not base and "_scores" in r and len(r["_scores"]) > 1:
+            r["vs_paper"] = welch_interval(r["_scores"], base["_scores"])
+    return rows
 
 
 def markdown(rows: list[dict[str, Any]]) -> str:
     """The rows as a Markdown table (``mean ± std`` cells, blank where a run lacks a column)."""
-    columns = ["eval_env_return", "eval_switches", *WINDOW_COLUMNS]
+    columns = ["score", "vs_paper", "eval_env_return", "eval_switches", *WINDOW_COLUMNS]
     present = [c for c in columns if any(c in r for r in rows)]
     lines = ["| run | episodes | seeds | " + " | ".join(present) + " |",
              "|---|---|---|" + "---|" * len(present)]
     for r in rows:
-        cells = [f"{r[c][0]:.3g} ± {r[c][1]:.2g}" if c in r else "" for c in present]
+        cells = [_cell(r, c) for c in present]
         lines.append(f"| {r['run']} | {r['episodes']} | {r['seeds']} | " + " | ".join(cells)
                      + " |")
     return "\n".join(lines)
 
 
+def _cell(r: dict[str, Any], column: str) -> str:
+    if column not in r:
+        return ""
+    if column == "vs_paper":
+        diff, low, high = r[column]
+        return f"{diff:+.3g} [{low:+.3g}, {high:+.3g}]"
+    return f"{r[column][0]:.3g} ± {r[column][1]:.2g}"
+
+
+def plot_curves(paths: list[str] | tuple[str, ...], out: Path, at: int | None = None,
+                title: str = "", lines: dict[str, float] | None = None) -> Path:
+    """Every run's evaluation curve (environment return, mean over seeds with a 95% t band),
+    cut at ``at``, with horizontal reference ``lines`` (label -> value); written to ``out``."""
+    from scipy import stats
+
+    from hiddpg.experiments.report import pyplot
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    for path in discover_runs(paths):
+        data = cut(load_run(path), at)
+        if not data.has("eval_env_return"):
+            continue
+        episodes, values = data.series("eval_env_return")
+        mean = values.mean(axis=0)
+        n = values.shape[0]
+        half = (stats.t.ppf(0.975, n - 1) * values.std(axis=0, ddof=1) / np.sqrt(n)
+                if n > 1 else np.zeros_like(mean))
+        (line,) = ax.plot(episodes, mean, lw=1.2, label=f"{changes(path)} ({n} seeds)")
+        ax.fill_between(episodes, mean - half, mean + half, color=line.get_color(), alpha=0.15)
+    for i, (label, value) in enumerate((lines or {}).items()):
+        ax.axhline(value, color="k", lw=0.8, ls=("--", ":", "-.")[i % 3], label=label)
+    ax.set_xlabel("training episode")
+    ax.set_ylabel("evaluation environment return")
+    ax.set_title(title)
+    ax.legend(fontsize=7, loc="lower right")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return out
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(prog="python -m hiddpg.experiments.diagnosis",
+                                description="A one-change-at-a-time study as a table.")
+    p.add_argument("dirs", nargs="+", help="sweep or run directories")
+    p.add_argument("--at", type=int, default=None, help="cut every run at this episode")
+    p.add_argument("--window", type=int, default=200, help="training episodes averaged")
+    p.add_argument("--plot", type=Path, default=None, help="also draw the curves here")
+    p.add_argument("--title", default="")
+    p.add_argument("--line", action="append", default=[], metavar="LABEL=VALUE",
+                   help="a horizontal reference line on the plot (repeatable)")
+    args = p.parse_args(argv)
+    print(markdown(summarize(args.dirs, args.window, args.at)))
+    if args.plot:
+        lines = {k: float(v) for k, _, v in (s.rpartition("=") for s in args.line)}
+        print(f"wrote {plot_curves(args.dirs, args.plot, args.at, args.title, lines)}")
+
+
 if __name__ == "__main__":  # pragma: no cover
-    print(markdown(summarize(sys.argv[1:] or ["."])))
+    main()
