@@ -5,6 +5,7 @@ costs, and a damaged checkpoint named instead of a traceback."""
 from __future__ import annotations
 
 import argparse
+import json
 
 import pytest
 
@@ -71,6 +72,13 @@ def test_bare_train_is_the_quick_preset_on_five_seeds_and_says_what_it_costs(tmp
     run, _ = train_cmd._prepare(paper)
     run.close()
     assert run.config.preset == "paper" and run.seeds == tuple(range(15))
+    plus = train_cmd.build_parser().parse_args(["hi-ddpg", "PuckTrajectory2", "--variant",
+                                                "paper+", "--out", str(tmp_path), "--name", "p"])
+    run, _ = train_cmd._prepare(plus)
+    run.close()
+    assert run.config.preset == "paper+" and run.seeds == tuple(range(15))
+    saved = json.loads((tmp_path / "p" / "config.json").read_text())
+    assert saved["config"]["preset"] == "paper+"
     assert train_cmd.main(["ddpg", "PuckTrajectory1", "--seeds", "0", *TINY,
                            "--out", str(tmp_path), "--name", "tiny"]) == 0
     err = capsys.readouterr().err

@@ -65,7 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "the quick preset, the paper's 0-14 for paper and paper+)")
     p.add_argument("--episodes", type=int, default=None,
                    help="training episodes per seed (default: the preset's)")
-    p.add_argument("--preset", default=None,
+    p.add_argument("--preset", "--variant", dest="preset", default=None,
                    help="quick (default: minutes), paper (the paper as written, its budget: "
                    "hours) or paper+ (the paper plus the changes of docs/diagnosis.md)")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
