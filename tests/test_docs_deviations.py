@@ -73,7 +73,11 @@ def test_reproduce_settings_are_named(text: str, sets: tuple[str, ...]) -> None:
 def test_eager_high_parts_and_paper_plus_are_named(text: str) -> None:
     for f in dataclasses.fields(EagerHighLevel):
         assert named(f.name, text), f"EagerHighLevel.{f.name} is not named"
-    assert "`paper+`" in text and "its changes will be listed here" in text
+    from hiddpg.variants import PAPER_PLUS
+
+    assert "`paper+`" in text and "(diagnosis.md)" in text
+    for change in PAPER_PLUS:  # every change of paper+ is a deviation from the paper
+        assert f"`{change}`" in text, f"paper+'s change {change} is not named"
 
 
 def test_tables_are_whole_and_cells_short(text: str) -> None:

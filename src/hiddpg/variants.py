@@ -2,7 +2,7 @@
 
 A variant is data: the ``paper`` preset plus a tuple of named changes. Each :class:`Change`
 is generic (it names a field of every actor-critic block, or of HI-DDPG's schedule, never a
-task) and carries the one-line reason it is there. ``paper`` adds nothing; ``paper+`` adds
+task) and says in one line what it sets. ``paper`` adds nothing; ``paper+`` adds
 only the changes the diagnosis of the exact preset shows are needed (docs/diagnosis.md), for
 every algorithm, so the same words describe it on every task.
 
