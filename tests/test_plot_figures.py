@@ -63,7 +63,7 @@ def figures(monkeypatch):
     """The figures the experiment modules save, instead of writing them."""
     drawn = []
 
-    def capture(fig, stem):
+    def capture(fig, stem, note=None):
         drawn.append(fig)
         return [stem.with_name(stem.name + ".png")]
 

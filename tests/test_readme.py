@@ -75,6 +75,9 @@ SKIPPED: dict[str, str] = {
     "hiddpg train --resume runs/paper-hi-ddpg-PuckTrajectory2":
         "continues the paper-preset run above (hours)",
     "hiddpg reproduce all --scale quick": "trains 12 runs, about 20 minutes on 2 cores",
+    "hiddpg report results/quick/quick": "reads the artifacts of `hiddpg reproduce all --scale "
+                                         "quick` above (tests/experiments/test_artifacts.py "
+                                         "runs it on a tiny reproduction)",
     "hiddpg sweep --algos ddpg --tasks PuckObstacle --seeds 0-4 --presets quick "
     "--grid agent.tau=0.01,0.005 --out sweeps/tau":
         "trains 2 runs of the full quick budget (5 seeds x 1500 episodes), minutes",

@@ -22,6 +22,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
               "train a grid of algorithms x tasks x seeds x overrides, locally or on Ray"),
     "ilqr": ("hiddpg.commands.ilqr:main", "solve a task with iLQR, the standard controller"),
     "reproduce": ("hiddpg.commands.reproduce:main", "reproduce the paper's Figs. 3-8 and a report"),
+    "report": ("hiddpg.commands.report:main",
+               "redraw the figures and report of `reproduce` from its artifacts, no training"),
     "plot": ("hiddpg.commands.plot:main", "compare runs: return curves and t-test tiles"),
 }
 

@@ -9,7 +9,9 @@
 Runs go to ``DIR/runs/<algo>-<task>/`` and are shared between figures; every run on disk is
 reused (a finished one as is, an interrupted one resumed), so an invocation that is killed
 continues where it stopped when run again. Figures go to ``DIR/figures/figN.png|pdf``, the
-report to ``DIR/report.md`` (default ``DIR``: ``results/<scale>/<variant>``). ``--scale quick``
+report to ``DIR/report.md`` (default ``DIR``: ``results/<scale>/<variant>``), each run's
+artifact (what the figures read, small enough to commit) to ``DIR/artifacts/<algo>-<task>/``,
+from which ``hiddpg report DIR`` redraws them without training. ``--scale quick``
 takes minutes; ``--scale paper`` (15 seeds, the paper's budgets) takes hours. ``--variant``
 says what is trained (default: ``quick`` at quick scale, ``paper`` at paper scale); every
 figure and the report name it.
@@ -65,7 +67,8 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _runners() -> dict[str, Callable]:
+def runners() -> dict[str, Callable]:
+    """Figure name -> the function that draws it (and trains or reuses its runs)."""
     from hiddpg.experiments import arm, comparison, trajectory
 
     return {"fig3": trajectory.fig3, "fig4": trajectory.fig4, "fig5": trajectory.fig5,
@@ -94,17 +97,19 @@ def _context(args: argparse.Namespace) -> Context:
 
 def _reproduce(args: argparse.Namespace, ctx: Context) -> int:
     """Run the figures and write the report; 1 if an experiment fails, 130 if interrupted."""
+    from hiddpg.experiments.redraw import write_context
     from hiddpg.experiments.report import write_report
 
     figures = FIGURES if args.figure == "all" else (args.figure,)
-    runners, t0 = _runners(), time.perf_counter()
+    draw, t0 = runners(), time.perf_counter()
     stopped = on_stop(lambda sig: print(f"{PROG}: stopped by {sig}; run the same command "
                                         "again to continue", file=sys.stderr))
     try:
+        write_context(ctx)
         with stopped:
             for name in figures:
                 ctx.say(f"== {name}: {ctx.note()} ==")
-                section = runners[name](ctx)
+                section = draw[name](ctx)
                 ctx.say(f"{name}: {', '.join(section['figures'])} ({section['wall_s']:.1f} s)")
                 write_report(ctx, time.perf_counter() - t0)
     except (ExperimentError, RunFileError, RunLockedError) as err:

@@ -20,7 +20,7 @@ import numpy as np
 from hiddpg.experiments import stats
 from hiddpg.experiments.common import Context, ensure_run
 from hiddpg.experiments.report import fmt, fmt_ci, fmt_pm, pyplot, save_figure, write_section
-from hiddpg.experiments.rundata import RunData, load_run, load_snapshot
+from hiddpg.experiments.rundata import RunData, load_run
 
 TASK = "ArmObstacle"
 ALGO = "hi-ddpg"
@@ -98,8 +98,8 @@ def fig6(ctx: Context) -> dict:
     t0 = time.perf_counter()
     run = load_run(ensure_run(ctx, ALGO, TASK))
     _, radius, horizon = _task_constants(run)
-    snaps = [load_snapshot(p) for p in run.snapshot_paths()]
-    final = snaps[-1]
+    snaps = run.snapshots()
+    final = run.final_snapshot()
     success, collision = outcomes(final.traj, radius, horizon)
     ret = final.metrics["env_return"]
     i = _drawn_run(success, ret)

@@ -4,42 +4,43 @@ An experiment's output directory ``OUT`` holds::
 
     runs/<algo>-<task>/   run directories of `hiddpg train` (shared by the figures that use them)
         snapshots/episode_NNNNNN.npz   a noise-free evaluation episode per seed after each chunk
+    artifacts/<algo>-<task>/  each run's artifact: what the figures read, small enough to
+                              commit (:mod:`hiddpg.experiments.artifacts`)
+    artifacts/reproduce.json  what the invocation asked for (:mod:`hiddpg.experiments.redraw`)
     figures/figN.png|pdf  the figures
     sections/figN.json    each figure's numbers and report text (report.md is built from them)
     report.md             the numbers behind the figures
 
 :func:`ensure_run` trains a run (:func:`hiddpg.runner.train_run`) only if it is not on disk:
 a finished run is reused as is, an interrupted one is resumed from its last checkpoint, a run
-whose config differs from the one asked for is an error (use another ``--out``). This module is
-shell: files and the run loop, no plotting.
+whose config differs from the one asked for is an error (use another ``--out``); every run it
+returns has its artifact written. A context ``from_artifacts`` (``hiddpg report``) trains
+nothing: :func:`ensure_run` returns the artifact. This module is shell: files and the run loop,
+no plotting.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import io
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from hiddpg import runner, summary
 from hiddpg.algorithms import get_algorithm
 from hiddpg.configs import HIDDPGConfig, TrainConfig
-from hiddpg.experiments.rundata import SNAPSHOT_DIR, ExperimentError
+from hiddpg.experiments.artifacts import ARTIFACTS_DIR, export_run, is_artifact
+from hiddpg.experiments.rundata import ExperimentError
+from hiddpg.experiments.snapshots import SNAPSHOT_DIR, snapshot_name, write_snapshot
 from hiddpg.presets import ARM_HIGH_CRITIC, CRITIC_DURATIONS
 from hiddpg.reporter import ConsoleReporter
-from hiddpg.runs import CONFIG_FILE, Run, atomic_write, make_trainer
-from hiddpg.train import eval_keys
+from hiddpg.runs import CONFIG_FILE, Run, make_trainer
 
 SCALES = ("quick", "paper")
 FAILED_FOR_GOOD = "non-finite"
 """A run stopped by a non-finite loss fails again on resume (training is deterministic)."""
-EVAL_KEY = 0
-"""Evaluation key of the snapshots (that of ``hiddpg eval --key 0``)."""
 
 
 @dataclass(frozen=True)
@@ -153,6 +154,10 @@ class Context:
     """Restrict the trajectory tasks (Figs. 4-5) to these (tests)."""
     log: Any = field(default=None, repr=False)
     """Where progress lines go (default: the current ``sys.stderr``)."""
+    from_artifacts: bool = False
+    """Draw from ``out/artifacts`` only: no training, ``out/runs`` is never read."""
+    described: str | None = None
+    """The variant's description recorded with the artifacts; ``None``: its current one."""
 
     def __post_init__(self) -> None:
         if self.scale not in SCALES:
@@ -178,13 +183,19 @@ class Context:
 
     def note(self) -> str:
         """What every figure says it shows: the variant and the scale."""
-        return f"variant {self.spec.describe()} ({self.scale} scale)"
+        return f"variant {self.describe()} ({self.scale} scale)"
+
+    def describe(self) -> str:
+        return self.described or self.spec.describe()
 
     def seed_list(self, task: str) -> list[int]:
         return list(range(self.seeds or self.budget(task).seeds))
 
     def run_path(self, algo: str, task: str) -> Path:
         return self.out / "runs" / f"{algo}-{task}"
+
+    def artifact_path(self, algo: str, task: str) -> Path:
+        return self.out / ARTIFACTS_DIR / f"{algo}-{task}"
 
     def figure_stem(self, name: str) -> Path:
         return self.out / "figures" / name
@@ -241,7 +252,11 @@ def _hidden_paths(obj: Any, prefix: str = "") -> list[str]:
 
 def available(ctx: Context, algo: str, task: str) -> str | None:
     """``None`` if ``algo``'s run on ``task`` is finished on disk or can be trained; else why
-    not (one line), e.g. an algorithm without a preset or whose module does not import."""
+    not (one line), e.g. an algorithm without a preset or whose module does not import;
+    from artifacts: ``None`` if its artifact is there."""
+    if ctx.from_artifacts:
+        path = ctx.artifact_path(algo, task)
+        return None if is_artifact(path) else f"no artifact {path}"
     try:
         config = ctx.config(algo, task)
         path = ctx.run_path(algo, task)
@@ -261,7 +276,12 @@ def available(ctx: Context, algo: str, task: str) -> str | None:
 
 def ensure_run(ctx: Context, algo: str, task: str) -> Path:
     """The run directory of ``algo`` on ``task``, trained to its budget: reused if finished,
-    resumed if interrupted, created otherwise; the last snapshot is made if missing."""
+    resumed if interrupted, created otherwise; the last snapshot is made if missing, the
+    artifact written. From artifacts: the artifact directory, nothing trained."""
+    if ctx.from_artifacts:
+        if why := available(ctx, algo, task):
+            raise ExperimentError(f"{why}; `hiddpg reproduce` writes it")
+        return ctx.artifact_path(algo, task)
     path, config = ctx.run_path(algo, task), ctx.config(algo, task)
     seeds = ctx.seed_list(task)
     if (path / CONFIG_FILE).is_file():
@@ -286,6 +306,7 @@ def ensure_run(ctx: Context, algo: str, task: str) -> Path:
     run = Run.open(path)
     if not (path / SNAPSHOT_DIR / snapshot_name(run.checkpoint_episodes())).is_file():
         write_snapshot(run)
+    export_run(path, ctx.artifact_path(algo, task))
     return path
 
 
@@ -316,26 +337,3 @@ def _check_same(run: Run, config: TrainConfig, seeds: list[int]) -> None:
             diff.append(f"seeds {list(run.seeds)} != {seeds}")
         raise ExperimentError(f"{run.path} holds a run with another config ({', '.join(diff)}); "
                               "remove it or choose another --out")
-
-
-# ------------------------------------------------------------------------------ snapshots
-
-
-def snapshot_name(episodes: int) -> str:
-    return f"episode_{episodes:06d}.npz"
-
-
-def write_snapshot(run: Run) -> Path:
-    """Evaluate the checkpointed policies (one noise-free episode per seed) and store metrics
-    and trajectories in ``snapshots/episode_NNNNNN.npz``."""
-    trainer = make_trainer(run.config)
-    state, done = run.load_checkpoint(trainer)
-    metrics, traj = trainer.evaluate_seeds(state, eval_keys(EVAL_KEY, run.seeds))
-    arrays = {f"metric_{k}": np.asarray(v) for k, v in metrics.items()}
-    arrays.update({f"traj_{k}": np.asarray(v) for k, v in traj.items()})
-    buf = io.BytesIO()
-    np.savez_compressed(buf, episode=np.asarray(done), **arrays)
-    target = run.path / SNAPSHOT_DIR / snapshot_name(done)
-    target.parent.mkdir(exist_ok=True)
-    atomic_write(target, buf.getvalue())
-    return target

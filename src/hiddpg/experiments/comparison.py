@@ -24,7 +24,6 @@ from hiddpg.experiments.common import Context, available, ensure_run
 from hiddpg.experiments.report import fmt, fmt_ci, fmt_pm, pyplot, save_figure, write_section
 from hiddpg.experiments.rundata import RunData, load_run
 from hiddpg.presets import task_family
-from hiddpg.runs import Run
 
 COMPARED = ("hi-ddpg", "h-ddpg", "hi-ddpg-wo-model", "ddpg")
 """The paper's four methods, in its order."""
@@ -225,7 +224,7 @@ def run_comparison(ctx: Context, name: str, algos: Sequence[str] = COMPARED) -> 
             continue
         run = load_run(ensure_run(ctx, algo, task))
         runs[run.label] = run
-        progress = Run.open(run.path).progress()
+        progress = run.progress()
         if progress.get("status") != "finished":
             notes.append(f"{run.label} stopped at episode {progress['episodes']} "
                          f"({progress.get('error', progress['status'])}); every curve and "

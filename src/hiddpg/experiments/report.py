@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from hiddpg.experiments.artifacts import META_FILE
 from hiddpg.experiments.common import BUDGETS, Context, budget_table, variant_table
 from hiddpg.runs import PROGRESS_FILE, atomic_write
 
@@ -72,23 +73,29 @@ def load_sections(out: Path) -> dict[str, dict]:
     return sections
 
 
-def training_wall_time(out: Path) -> dict[str, float]:
-    """Wall-clock training seconds recorded by every run under ``out/runs``."""
+def training_wall_time(out: Path, from_artifacts: bool = False) -> dict[str, float]:
+    """Wall-clock training seconds recorded by every run under ``out/runs`` (or by every
+    artifact under ``out/artifacts``)."""
+    folder, file = ("artifacts", META_FILE) if from_artifacts else ("runs", PROGRESS_FILE)
     times = {}
-    for progress in sorted((out / "runs").glob(f"*/{PROGRESS_FILE}")):
-        times[progress.parent.name] = float(json.loads(progress.read_text())["wall_time"])
+    for path in sorted((out / folder).glob(f"*/{file}")):
+        wall = json.loads(path.read_text()).get("wall_time")
+        if wall is not None:
+            times[path.parent.name] = float(wall)
     return times
 
 
 def write_report(ctx: Context, invocation_s: float | None = None) -> Path:
     """Rebuild ``report.md`` from the stored sections."""
     sections = load_sections(ctx.out)
-    train = training_wall_time(ctx.out)
+    train = training_wall_time(ctx.out, ctx.from_artifacts)
+    writer = ("Redrawn by `hiddpg report` from the artifacts (nothing trained)"
+              if ctx.from_artifacts else "Written by `hiddpg reproduce`")
     scale_budgets = {f: b for (s, f), b in BUDGETS.items() if s == ctx.scale}
     seeds = ctx.seeds or max(b.seeds for b in scale_budgets.values())
     lines = [f"# HI-DDPG reproduction: variant {ctx.variant}, {ctx.scale} scale", "",
-             f"Variant {ctx.spec.describe()}.", "",
-             f"Written by `hiddpg reproduce` on {time.strftime('%Y-%m-%d %H:%M:%S')}; "
+             f"Variant {ctx.describe()}.", "",
+             f"{writer} on {time.strftime('%Y-%m-%d %H:%M:%S')}; "
              f"{seeds} seeds per method (seeds 0-{seeds - 1}); the run (seed) is the unit of "
              "every statistic.", "",
              "## Budgets", "", budget_table(), "", "## Variants", "", variant_table(), ""]

@@ -1,25 +1,36 @@
-"""Runs read back from disk: metrics.csv as arrays, evaluation snapshots, run discovery.
+"""Runs read back from disk: a run directory or an artifact as arrays, run discovery.
 
-``RunData.metrics[column]`` is a (seeds, episodes) float array (NaN where a row has no value,
-e.g. evaluation columns between evaluations); a :class:`Snapshot` is one noise-free evaluation
-episode per seed stored by :func:`hiddpg.experiments.common.write_snapshot`.
+``RunData.metrics[column]`` is a (seeds, points) float array (NaN where a row has no value,
+e.g. evaluation columns between evaluations): one point per training episode for a run
+directory, one per evaluation for an artifact (:mod:`hiddpg.experiments.artifacts`).
+``RunData.training`` holds the training columns as means over blocks of episodes, the same
+from either. A :class:`Snapshot` is one noise-free evaluation episode per seed
+(:mod:`hiddpg.experiments.snapshots`).
 """
 
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from hiddpg.configs import TrainConfig
+from hiddpg.experiments.snapshots import SNAPSHOT_DIR, Snapshot, load_snapshot, load_snapshot_dir
 from hiddpg.runs import CONFIG_FILE, Run
 
-SNAPSHOT_DIR = "snapshots"
+__all__ = ["SNAPSHOT_DIR", "Snapshot", "load_snapshot", "RunData", "TrainingBlocks",
+           "block_means", "load_run", "discover_runs", "ExperimentError"]
+
 LABELS = {"hi-ddpg": "HI-DDPG", "h-ddpg": "h-DDPG", "hi-ddpg-wo-model": "HI-DDPG-wo-model",
           "ddpg": "DDPG"}
+TRAINING_BLOCKS = 100
+"""Training columns are kept as means over blocks of ``max(1, episodes // 100)`` episodes."""
+TRAINING_COLUMNS = ("return", "switches")
+"""The training (per-episode) columns the figures read."""
 
 
 class ExperimentError(RuntimeError):
@@ -27,19 +38,32 @@ class ExperimentError(RuntimeError):
 
 
 @dataclass(frozen=True)
-class Snapshot:
-    """One snapshot: ``metrics[k]`` (seeds,), ``traj[k]`` (seeds, horizon, ...)."""
+class TrainingBlocks:
+    """Training columns averaged over blocks of ``size`` episodes, counted back from the last
+    episode (the first ``episodes % size`` episodes are left out)."""
 
-    episode: int
-    metrics: dict[str, np.ndarray]
-    traj: dict[str, np.ndarray]
+    size: int
+    ends: np.ndarray
+    """(blocks,) the last episode of each block."""
+    means: dict[str, np.ndarray]
+    """column -> (seeds, blocks) means."""
 
 
-def load_snapshot(path: Path) -> Snapshot:
-    with np.load(path) as z:
-        metrics = {k[7:]: z[k] for k in z.files if k.startswith("metric_")}
-        traj = {k[5:]: z[k] for k in z.files if k.startswith("traj_")}
-        return Snapshot(int(z["episode"]), metrics, traj)
+def block_size(episodes: int) -> int:
+    return max(1, episodes // TRAINING_BLOCKS)
+
+
+def block_means(episodes: np.ndarray, metrics: dict[str, np.ndarray],
+                columns: tuple[str, ...] = TRAINING_COLUMNS) -> TrainingBlocks:
+    """The :class:`TrainingBlocks` of per-episode ``metrics`` (columns of ``columns`` that
+    are present), blocks of :func:`block_size` episodes."""
+    n = len(episodes)
+    size = block_size(n)
+    blocks = n // size
+    start = n - blocks * size
+    means = {c: metrics[c][:, start:].reshape(len(metrics[c]), blocks, size).mean(axis=2)
+             for c in columns if c in metrics}
+    return TrainingBlocks(size, np.asarray(episodes[start + size - 1::size]), means)
 
 
 # ------------------------------------------------------------------------------- run data
@@ -47,15 +71,22 @@ def load_snapshot(path: Path) -> Snapshot:
 
 @dataclass
 class RunData:
-    """A run directory read back: config, seeds, per-seed per-episode metrics, snapshots."""
+    """A run read back: config, seeds, per-seed metrics, training blocks, snapshots."""
 
     path: Path
     config: TrainConfig
     seeds: tuple[int, ...]
     episodes: np.ndarray
-    """(episodes,) the training episodes 1..E present for every seed."""
+    """(points,) the episodes of ``metrics``, present for every seed."""
     metrics: dict[str, np.ndarray]
-    """column -> (seeds, episodes) floats; NaN where empty (non-evaluation rows)."""
+    """column -> (seeds, points) floats; NaN where empty (non-evaluation rows)."""
+    blocks: TrainingBlocks | None = None
+    """The training columns' block means; ``None``: computed from per-episode ``metrics``."""
+    stored_snapshots: Callable[[], list[Snapshot]] | None = None
+    """Reads the snapshots; ``None``: the npz files under ``path/snapshots``."""
+    info: dict[str, Any] | None = None
+    """The run's episodes, wall time and status; ``None``: its progress.json."""
+    _snapshots: list[Snapshot] | None = field(default=None, init=False, repr=False)
 
     def env(self) -> tuple[Any, Any]:
         """The run's environment and its params (no agent is built)."""
@@ -67,6 +98,12 @@ class RunData:
     def label(self) -> str:
         return LABELS.get(self.config.algo, self.config.algo)
 
+    @property
+    def training(self) -> TrainingBlocks:
+        if self.blocks is None:
+            self.blocks = block_means(self.episodes, self.metrics)
+        return self.blocks
+
     def has(self, column: str) -> bool:
         return column in self.metrics and bool(np.isfinite(self.metrics[column]).any())
 
@@ -77,18 +114,31 @@ class RunData:
         keep = np.isfinite(values).all(axis=0)
         return self.episodes[keep], values[:, keep]
 
-    def snapshot_paths(self) -> list[Path]:
-        return sorted((self.path / SNAPSHOT_DIR).glob("episode_*.npz"))
+    def snapshots(self) -> list[Snapshot]:
+        """Every snapshot, in episode order (read once)."""
+        if self._snapshots is None:
+            self._snapshots = (self.stored_snapshots() if self.stored_snapshots
+                               else load_snapshot_dir(self.path))
+        return self._snapshots
 
     def final_snapshot(self) -> Snapshot:
-        paths = self.snapshot_paths()
-        if not paths:
+        snaps = self.snapshots()
+        if not snaps:
             raise ExperimentError(f"{self.path} has no snapshot; run `hiddpg reproduce` on it")
-        return load_snapshot(paths[-1])
+        return snaps[-1]
+
+    def progress(self) -> dict[str, Any]:
+        """``episodes``, ``wall_time``, ``status`` (and ``error``) of the run."""
+        return dict(self.info) if self.info is not None else Run.open(self.path).progress()
 
 
 def load_run(path: str | Path) -> RunData:
-    """Read ``path``'s config and metrics.csv into arrays (seeds, episodes)."""
+    """A run directory's config and metrics.csv as arrays (seeds, episodes), or an artifact
+    (a directory with ``meta.json``, :func:`hiddpg.experiments.artifacts.load_artifact`)."""
+    from hiddpg.experiments.artifacts import is_artifact, load_artifact
+
+    if is_artifact(path):
+        return load_artifact(path)
     run = Run.open(path)
     if not run.metrics_path.is_file():
         raise ExperimentError(f"{run.path} has no {run.metrics_path.name} yet")
@@ -113,14 +163,18 @@ def _float(text: str) -> float:
 
 
 def discover_runs(paths: list[str] | tuple[str, ...]) -> list[Path]:
-    """Run directories among ``paths``: a run directory itself, or every run directory below
-    a directory (sorted)."""
+    """Run directories among ``paths``: one itself (or an artifact), or every one below a
+    directory (sorted; the artifacts below it where it holds no run directory)."""
+    from hiddpg.experiments.artifacts import is_artifact
+
     found: list[Path] = []
     for p in map(Path, paths):
         if (p / CONFIG_FILE).is_file():
             found.append(p)
         elif p.is_dir():
-            found += sorted(c.parent for c in p.rglob(CONFIG_FILE))
+            below = sorted(c.parent for c in p.rglob(CONFIG_FILE))
+            runs = [b for b in below if not is_artifact(b)]
+            found += runs or below
         else:
             raise ExperimentError(f"{p} is neither a run directory nor a directory of runs")
     return found

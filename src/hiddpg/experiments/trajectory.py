@@ -1,7 +1,8 @@
 """Figs. 3-5: HI-DDPG following the reference trajectories of PuckTrajectory1/2/3.
 
 * Fig. 3: the high-level return (environment return minus the switch cost) over training on
-  the 2-inflection task, mean ± std over runs, with the number of goal switches.
+  the 2-inflection task, mean ± std over runs of each run's means over blocks of episodes
+  (:class:`hiddpg.experiments.rundata.TrainingBlocks`), with the number of goal switches.
 * Fig. 4: reference vs generated trajectories, the training history (one noise-free episode
   after every chunk) drawn with rising opacity; reference goals vs every run's learned goals.
 * Fig. 5: one run's goals and low-level actions next to iLQR's actions for the same goals and
@@ -21,15 +22,13 @@ import numpy as np
 from hiddpg.experiments import stats
 from hiddpg.experiments.common import Context, ensure_run
 from hiddpg.experiments.report import fmt, fmt_ci, fmt_pm, pyplot, save_figure, write_section
-from hiddpg.experiments.rundata import RunData, Snapshot, load_run, load_snapshot
+from hiddpg.experiments.rundata import RunData, Snapshot, load_run
 
 ALGO = "hi-ddpg"
 TASKS = ("PuckTrajectory1", "PuckTrajectory2", "PuckTrajectory3")
 FIG3_TASK = "PuckTrajectory2"
 FINAL_FRACTION = 0.1
-"""Fig. 3's final return: each run's mean over the last 10% of training episodes."""
-SMOOTH_POINTS = 100
-"""Fig. 3's curves are moving averages over ``episodes // SMOOTH_POINTS`` episodes."""
+"""Fig. 3's final return: each run's mean over the last 10% of its training blocks."""
 
 
 def history_alpha(k: int, n: int) -> float:
@@ -61,14 +60,6 @@ def bar_history(snaps: list[Snapshot], goals: np.ndarray, switch_steps: np.ndarr
         both = bar_counts(near, snap.metrics["switches"], len(goals) - 1)["both"]
         out.append((snap.episode, both))
     return out
-
-
-def moving_average(values: np.ndarray, window: int) -> np.ndarray:
-    """Trailing moving average along the last axis ('valid' part: ``n - window + 1`` points)."""
-    if window <= 1:
-        return values
-    kernel = np.ones(window) / window
-    return np.apply_along_axis(lambda v: np.convolve(v, kernel, mode="valid"), -1, values)
 
 
 def _runs(ctx: Context, tasks: tuple[str, ...]) -> dict[str, RunData]:
@@ -131,29 +122,28 @@ def fig3(ctx: Context) -> dict:
     reference = len(np.asarray(params.goals)) - 1
     plt = pyplot()
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
-    ret, sw = run.metrics["return"], run.metrics["switches"]
-    window = max(1, ret.shape[1] // SMOOTH_POINTS)
+    blocks = run.training
+    ret, sw = blocks.means["return"], blocks.means["switches"]
     for ax, values, label in ((top, ret, "high-level return"), (bottom, sw, "goal switches")):
-        values = moving_average(values, window)
         mean, std = values.mean(axis=0), values.std(axis=0, ddof=1) if len(values) > 1 else 0
-        episodes = run.episodes[window - 1:]
-        ax.plot(episodes, mean, color="tab:red", lw=1, label=f"mean over {len(values)} runs")
-        ax.fill_between(episodes, mean - std, mean + std, color="tab:red", alpha=0.2, lw=0,
+        ax.plot(blocks.ends, mean, color="tab:red", lw=1, label=f"mean over {len(values)} runs")
+        ax.fill_between(blocks.ends, mean - std, mean + std, color="tab:red", alpha=0.2, lw=0,
                         label="± std over runs")
         ax.set_ylabel(label)
     bottom.axhline(reference, color="tab:blue", ls="--", label="reference's switches")
     top.set_title(f"Fig. 3: HI-DDPG on {FIG3_TASK}, training episodes\n(exploration on; "
-                  f"moving average over {window} episodes)", fontsize=10)
+                  f"means over blocks of {blocks.size} episodes)", fontsize=10)
     top.legend(fontsize=8), bottom.legend(fontsize=8)
     bottom.set_xlabel("training episode")
     figures = save_figure(fig, ctx.figure_stem("fig3"), ctx.note())
-    tail = max(1, round(FINAL_FRACTION * ret.shape[1]))
+    tail = max(1, round(FINAL_FRACTION * ret.shape[1]))  # blocks
     final = stats.summarize(ret[:, -tail:].mean(axis=1))
     final_sw = run.final_snapshot().metrics["switches"]
     numbers = {"task": FIG3_TASK, "final_high_level_return": final,
                "final_eval_switches": final_sw.tolist(), "reference_switches": reference}
     markdown = "\n".join([
-        f"Final high-level return = each run's mean over its last {tail} training episodes.",
+        f"Final high-level return = each run's mean over its last {tail * blocks.size} "
+        "training episodes.",
         "", "| runs | final high-level return (mean ± std) | IQM [95% CI] | "
             "switches, final policy (per run) | reference switches |",
         "|---:|---:|---:|---|---:|",
@@ -178,7 +168,7 @@ def fig4(ctx: Context) -> dict:
         ref = np.concatenate([np.asarray(params.init_state)[None, :2],
                               np.asarray(params.ref_states)[:, :2]])
         goals, switch = np.asarray(params.goals), np.asarray(params.switch_steps)
-        snaps = [load_snapshot(p) for p in run.snapshot_paths()]
+        snaps = run.snapshots()
         final = snaps[-1]
         i = median_seed(final)
         for k, snap in enumerate(snaps):

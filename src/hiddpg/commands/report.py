@@ -1,0 +1,88 @@
+"""``hiddpg report``: redraw the figures and the report from an output directory's artifacts.
+
+::
+
+    hiddpg report DIR [FIG ...]
+
+Reads ``DIR/artifacts`` (written by ``hiddpg reproduce --out DIR``), never ``DIR/runs``, and
+trains nothing: every figure whose artifacts are there (or the figures named) is drawn again
+to ``DIR/figures``, its section to ``DIR/sections`` and ``DIR/report.md`` rewritten, with the
+numbers ``hiddpg reproduce`` computed from the run directories.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Sequence
+
+from hiddpg.commands.common import USAGE_ERRORS, UsageError, report_error, run_command
+from hiddpg.commands.common import Parser as _Parser
+from hiddpg.commands.reproduce import FIGURES, runners
+from hiddpg.experiments.common import Context
+from hiddpg.experiments.rundata import ExperimentError
+from hiddpg.run_files import RunFileError
+
+PROG = "hiddpg report"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog=PROG, description="Redraw the figures and report.md of an output "
+                "directory of `hiddpg reproduce` from its artifacts, without training.")
+    p.add_argument("dir", metavar="DIR", help="output directory of `hiddpg reproduce` "
+                   "(e.g. results/paper/paper), holding artifacts/")
+    p.add_argument("figures", nargs="*", metavar="FIG",
+                   help=f"figures to draw ({', '.join(FIGURES)}; default: every figure whose "
+                        "artifacts are there)")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``hiddpg report`` with ``argv``; returns the exit code."""
+    return run_command(PROG, argv, build_parser, _prepare, _redraw,
+                       errors=(*USAGE_ERRORS, ExperimentError))
+
+
+def _prepare(args: argparse.Namespace) -> tuple[Context, list[str], dict[str, str | None]]:
+    """The context of ``args.dir``'s artifacts and the figures to draw; a missing directory,
+    artifact or asked-for figure's artifact is a usage error."""
+    from hiddpg.experiments.redraw import artifact_context, drawable
+
+    unknown = [f for f in args.figures if f not in FIGURES]
+    if unknown:
+        raise UsageError(f"figure {unknown[0]!r} is not one of {', '.join(FIGURES)}")
+    ctx = artifact_context(args.dir)
+    why = drawable(ctx)
+    for name in args.figures:
+        if why[name]:
+            raise UsageError(f"{name} cannot be drawn: {why[name]}")
+    figures = list(dict.fromkeys(args.figures)) or [f for f in FIGURES if not why[f]]
+    if not figures:
+        raise UsageError(f"no figure has its artifacts under {ctx.out / 'artifacts'}")
+    return ctx, figures, why
+
+
+def _redraw(args: argparse.Namespace, prepared) -> int:
+    """Draw the figures, rewrite the report; 1 if an artifact cannot be read."""
+    from hiddpg.experiments.report import write_report
+
+    ctx, figures, why = prepared
+    draw, t0 = runners(), time.perf_counter()
+    try:
+        for name in FIGURES:
+            if name not in figures:
+                if why[name] and not args.figures:
+                    print(f"{name}: skipped ({why[name]})")
+                continue
+            section = draw[name](ctx)
+            print(f"{name}: {', '.join(section['figures'])} ({section['wall_s']:.1f} s)")
+        report = write_report(ctx, time.perf_counter() - t0)
+    except (ExperimentError, RunFileError) as err:
+        return report_error(PROG, err, code=1)
+    print(f"wrote {report} ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
