@@ -14,7 +14,9 @@ artifact (what the figures read, small enough to commit) to ``DIR/artifacts/<alg
 from which ``hiddpg report DIR`` redraws them without training. ``--scale quick``
 takes minutes; ``--scale paper`` (15 seeds, the paper's budgets) takes hours. ``--variant``
 says what is trained (default: ``quick`` at quick scale, ``paper`` at paper scale); every
-figure and the report name it.
+figure and the report name it. ``all`` draws the puck figures before the arm's (cheap runs
+first); ``--dry-run`` lists the runs it would train, resume or reuse and the environment steps
+left.
 """
 
 from __future__ import annotations
@@ -63,6 +65,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                    help="config override for every run, as in `hiddpg train`; "
                         "agent.hidden=[..] sets every hidden-size field")
+    p.add_argument("--dry-run", action="store_true",
+                   help="list the runs this would train, resume or reuse, and the environment "
+                        "steps left; train nothing")
     p.add_argument("--tasks", default=None, help=argparse.SUPPRESS)  # tests: Figs. 4-5 tasks
     return p
 
@@ -99,8 +104,13 @@ def _reproduce(args: argparse.Namespace, ctx: Context) -> int:
     """Run the figures and write the report; 1 if an experiment fails, 130 if interrupted."""
     from hiddpg.experiments.redraw import write_context
     from hiddpg.experiments.report import write_report
+    from hiddpg.experiments.schedule import CHEAP_FIRST, plan, plan_table
 
-    figures = FIGURES if args.figure == "all" else (args.figure,)
+    figures = CHEAP_FIRST if args.figure == "all" else (args.figure,)
+    if args.dry_run:
+        print(f"{PROG}: {ctx.note()}, into {ctx.out}; nothing is trained (--dry-run)")
+        print(plan_table(plan(ctx, figures)))
+        return 0
     draw, t0 = runners(), time.perf_counter()
     stopped = on_stop(lambda sig: print(f"{PROG}: stopped by {sig}; run the same command "
                                         "again to continue", file=sys.stderr))

@@ -96,8 +96,9 @@ REPRODUCE_VARIANTS: dict[str, Variant] = {v.name: v for v in (
     Variant("paper+", "paper+", "the paper plus the changes of docs/diagnosis.md"),
     Variant("extended", "quick",
             "the quick preset plus, for HI-DDPG, the critic-chosen durations, hindsight goals "
-            "and a rest term on the trajectory tasks (6000 episodes) and hindsight actions and "
-            "a Huber loss for the high critic on ArmObstacle",
+            "and a rest term without the model-based gradient on the trajectory tasks (6000 "
+            "episodes) and hindsight actions and a Huber loss for the high critic on "
+            "ArmObstacle",
             hi_ddpg_sets=(("trajectory", CRITIC_DURATIONS), ("arm", ARM_HIGH_CRITIC)),
             paper_episodes=(("trajectory", 6000), ("puck", 3000), ("arm", 3000))),
 )}
