@@ -74,3 +74,21 @@ def test_cut_compares_runs_at_the_same_budget_and_the_curves_are_drawn(tmp_path)
     out = diagnosis.plot_curves([str(tmp_path)], tmp_path / "c.png", at=30,
                                 lines={"reference plan": 0.0})
     assert out.read_bytes().startswith(b"\x89PNG")
+
+
+def test_an_exported_study_gives_the_same_table_without_the_runs(tmp_path):
+    write_run(tmp_path / "runs" / "a", 0.0)
+    write_run(tmp_path / "runs" / "b", -100.0)
+    (tmp_path / "runs" / "sweep.json").write_text(json.dumps({"runs": {
+        "a": {"preset": "paper", "sets": ["episodes=40"]},
+        "b": {"preset": "paper", "sets": ["episodes=40", "agent.high.tau=0.01"]}}}))
+    export = tmp_path / "study.json"
+    diagnosis.main([str(tmp_path / "runs"), "--window", "10", "--export", str(export)])
+    direct = diagnosis.markdown(diagnosis.summarize([str(tmp_path / "runs")], window=10))
+    import shutil
+
+    shutil.rmtree(tmp_path / "runs")
+    again = diagnosis.markdown(diagnosis.summarize([str(export)]))
+    assert again == direct
+    assert [r.split(" | ")[0] for r in direct.splitlines()[2:]] == [
+        "| paper", "| agent.high.tau=0.01"]  # the budget is not a change

@@ -1,20 +1,26 @@
-"""A one-change-at-a-time study read back as a table: what each variant of a sweep learned.
+"""A one-change-at-a-time study read back as a table and curves: what each variant learned.
 
 For a sweep directory (``hiddpg sweep SPEC --out DIR``; its ``sweep.json`` names each run's
-changes) or any run directories, :func:`summarize` gives one row per run with, over its seeds:
+changes) or any run directories, :func:`collect` reads every run, cut at episode ``at``, into
+a small JSON-able record (:func:`record`): per seed, the evaluation curve of the environment
+return and switches, and the means of the training columns over the last ``window`` episodes.
+Everything else is computed from these records, so a study exported with ``--export`` (and
+committed under ``results/``) gives the same table and curves without the run directories.
 
-* ``eval_env_return``: the last noise-free evaluation's environment return, mean and std;
-* ``score``: the mean of each seed's last ``LAST_EVALS`` evaluations (less noisy than one), and
-  ``vs_paper``: its difference to the unchanged run's (``paper``) with a Welch 95% interval;
-* ``env_return``: the training episodes' environment return over the last ``window`` episodes;
-* ``switches`` of the last evaluation and HI-DDPG's ``reach_error`` (how far a segment ends
-  from its goal, training, last ``window`` episodes);
-* ``high_q_mean`` against ``return`` (the high critic's mean value of its batches against the
-  high-level return the episodes got), and both levels' ``dq_da_norm`` (the action gradient's
-  mean norm), where the run logged them.
+:func:`summarize` gives one row per run, over its seeds:
 
-:func:`markdown` writes the rows as a table. ``python -m hiddpg.experiments.diagnosis DIR``
-prints it.
+* ``score``: the mean of each seed's last :data:`LAST_EVALS` evaluations (less noisy than one),
+  and ``vs_paper``: its difference to the unchanged run's (``paper``) with a Welch 95%
+  interval;
+* ``eval_env_return`` and ``eval_switches``: the last noise-free evaluation;
+* ``env_return``, ``return``, HI-DDPG's ``reach_error`` (how far a segment ends from its
+  goal), ``high_q_mean`` (the high critic's mean value of its batches, against ``return``,
+  the high-level return the episodes got) and both levels' ``dq_da_norm`` (the action
+  gradient's mean norm): training, last ``window`` episodes, where the run logged them.
+
+``python -m hiddpg.experiments.diagnosis DIR|EXPORT.json [--at EPISODE] [--plot FILE.png]
+[--export FILE.json]`` prints the table (:func:`markdown`) and draws the evaluation curves
+(:func:`plot_curves`).
 """
 
 from __future__ import annotations
@@ -33,24 +39,20 @@ LAST_EVALS = 5
 #: training columns averaged over the last ``window`` episodes of every seed
 WINDOW_COLUMNS = ("env_return", "return", "reach_error", "high_q_mean", "high_dq_da_norm",
                   "low_dq_da_norm")
+EVAL_COLUMNS = ("eval_env_return", "eval_switches")
 
 
 def changes(path: Path) -> str:
-    """The run's changes as the sweep that made it lists them (``sweep.json`` next to it);
-    ``paper`` for none, the run's name outside a sweep."""
+    """The run's changes as the sweep that made it lists them (``sweep.json`` next to it;
+    its budget ``episodes=N`` left out); ``paper`` for none, the run's name outside a
+    sweep."""
     manifest = path.parent / "sweep.json"
     if manifest.is_file():
         entry = json.loads(manifest.read_text()).get("runs", {}).get(path.name)
         if entry is not None:
-            return ", ".join(entry.get("sets", [])) or entry.get("preset", "")
+            sets = [s for s in entry.get("sets", []) if not s.startswith("episodes=")]
+            return ", ".join(sets) or entry.get("preset", "")
     return path.name
-
-
-def _last_eval(data: RunData, column: str) -> np.ndarray | None:
-    if not data.has(column):
-        return None
-    _, values = data.series(column)
-    return values[:, -1]
 
 
 def cut(data: RunData, at: int | None) -> RunData:
@@ -64,12 +66,32 @@ def cut(data: RunData, at: int | None) -> RunData:
                    {k: v[:, keep] for k, v in data.metrics.items()})
 
 
-def scores(data: RunData) -> np.ndarray | None:
-    """Per seed: the mean of its last :data:`LAST_EVALS` evaluations' environment return."""
-    if not data.has("eval_env_return"):
-        return None
-    _, values = data.series("eval_env_return")
-    return values[:, -LAST_EVALS:].mean(axis=1)
+def record(data: RunData, window: int = 200) -> dict[str, Any]:
+    """What the table and the curves need of one run, as plain lists (JSON)."""
+    out: dict[str, Any] = {"run": changes(data.path), "name": data.path.name,
+                           "algo": data.config.algo, "task": data.config.task,
+                           "preset": data.config.preset, "seeds": list(data.seeds),
+                           "episodes": int(data.episodes[-1]), "eval": {}, "window": {}}
+    for column in EVAL_COLUMNS:
+        if data.has(column):
+            episodes, values = data.series(column)
+            out["eval_episodes"] = episodes.astype(int).tolist()
+            out["eval"][column] = values.tolist()
+    for column in WINDOW_COLUMNS:
+        if data.has(column):
+            out["window"][column] = np.nanmean(data.metrics[column][:, -window:],
+                                               axis=1).tolist()
+    return out
+
+
+def collect(paths: list[str] | tuple[str, ...], window: int = 200,
+            at: int | None = None) -> dict[str, Any]:
+    """The study's records: one per run directory among ``paths`` (directories are
+    searched), or those of an exported study (a ``.json`` file)."""
+    if len(paths) == 1 and str(paths[0]).endswith(".json"):
+        return json.loads(Path(paths[0]).read_text())
+    runs = [record(cut(load_run(p), at), window) for p in discover_runs(paths)]
+    return {"at": at, "window": window, "last_evals": LAST_EVALS, "runs": runs}
 
 
 def welch_interval(a: np.ndarray, b: np.ndarray, level: float = 0.95
@@ -86,32 +108,30 @@ def welch_interval(a: np.ndarray, b: np.ndarray, level: float = 0.95
     return diff, diff - half, diff + half
 
 
-def row(data: RunData, window: int = 200) -> dict[str, Any]:
-    """One run's summary (see the module docstring); values are ``(mean, std)`` over seeds."""
-    out: dict[str, Any] = {"run": changes(data.path), "episodes": int(data.episodes[-1]),
-                           "seeds": len(data.seeds)}
-    for column in ("eval_env_return", "eval_switches"):
-        last = _last_eval(data, column)
-        if last is not None:
-            out[column] = (float(last.mean()), float(last.std(ddof=1)) if len(last) > 1 else 0.0)
-    per_seed = scores(data)
-    if per_seed is not None:
-        out["score"] = (float(per_seed.mean()),
-                        float(per_seed.std(ddof=1)) if len(per_seed) > 1 else 0.0)
-        out["_scores"] = per_seed
-    for column in WINDOW_COLUMNS:
-        if data.has(column):
-            per_seed = np.nanmean(data.metrics[column][:, -window:], axis=1)
-            out[column] = (float(per_seed.mean()),
-                           float(per_seed.std(ddof=1)) if len(per_seed) > 1 else 0.0)
+def _spread(values: np.ndarray) -> tuple[float, float]:
+    return float(values.mean()), float(values.std(ddof=1)) if len(values) > 1 else 0.0
+
+
+def row(rec: dict[str, Any]) -> dict[str, Any]:
+    """One run's summary (see the module docstring); values are ``(mean, std)`` over seeds;
+    ``_scores`` holds the per-seed scores."""
+    out: dict[str, Any] = {"run": rec["run"], "episodes": rec["episodes"],
+                           "seeds": len(rec["seeds"])}
+    for column, values in rec["eval"].items():
+        out[column] = _spread(np.asarray(values)[:, -1])
+        if column == "eval_env_return":
+            per_seed = np.asarray(values)[:, -LAST_EVALS:].mean(axis=1)
+            out["score"], out["_scores"] = _spread(per_seed), per_seed
+    for column, per_seed in rec["window"].items():
+        out[column] = _spread(np.asarray(per_seed))
     return out
 
 
 def summarize(paths: list[str] | tuple[str, ...], window: int = 200,
               at: int | None = None) -> list[dict[str, Any]]:
-    """One :func:`row` per run directory among ``paths`` (directories are searched), each cut
-    at episode ``at``; rows get ``vs_paper`` where an unchanged (``paper``) run is among them."""
-    rows = [row(cut(load_run(p), at), window) for p in discover_runs(paths)]
+    """One :func:`row` per run of :func:`collect`; rows get ``vs_paper`` where an unchanged
+    (``paper``) run is among them."""
+    rows = [row(r) for r in collect(paths, window, at)["runs"]]
     base = next((r for r in rows if r["run"] == "paper" and "_scores" in r), None)
     for r in rows:
         if base is not None and r is not base and "_scores" in r and len(r["_scores"]) > 1:
@@ -121,7 +141,7 @@ def summarize(paths: list[str] | tuple[str, ...], window: int = 200,
 
 def markdown(rows: list[dict[str, Any]]) -> str:
     """The rows as a Markdown table (``mean ± std`` cells, blank where a run lacks a column)."""
-    columns = ["score", "vs_paper", "eval_env_return", "eval_switches", *WINDOW_COLUMNS]
+    columns = ["score", "vs_paper", *EVAL_COLUMNS, *WINDOW_COLUMNS]
     present = [c for c in columns if any(c in r for r in rows)]
     lines = ["| run | episodes | seeds | " + " | ".join(present) + " |",
              "|---|---|---|" + "---|" * len(present)]
@@ -151,16 +171,17 @@ def plot_curves(paths: list[str] | tuple[str, ...], out: Path, at: int | None = 
 
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.5))
-    for path in discover_runs(paths):
-        data = cut(load_run(path), at)
-        if not data.has("eval_env_return"):
+    for rec in collect(paths, at=at)["runs"]:
+        if "eval_env_return" not in rec["eval"]:
             continue
-        episodes, values = data.series("eval_env_return")
-        mean = values.mean(axis=0)
-        n = values.shape[0]
+        episodes = np.asarray(rec["eval_episodes"])
+        values = np.asarray(rec["eval"]["eval_env_return"])
+        keep = episodes <= (at or episodes[-1])
+        episodes, values = episodes[keep], values[:, keep]
+        mean, n = values.mean(axis=0), values.shape[0]
         half = (stats.t.ppf(0.975, n - 1) * values.std(axis=0, ddof=1) / np.sqrt(n)
                 if n > 1 else np.zeros_like(mean))
-        (line,) = ax.plot(episodes, mean, lw=1.2, label=f"{changes(path)} ({n} seeds)")
+        (line,) = ax.plot(episodes, mean, lw=1.2, label=f"{rec['run']} ({n} seeds)")
         ax.fill_between(episodes, mean - half, mean + half, color=line.get_color(), alpha=0.15)
     for i, (label, value) in enumerate((lines or {}).items()):
         ax.axhline(value, color="k", lw=0.8, ls=("--", ":", "-.")[i % 3], label=label)
@@ -177,18 +198,27 @@ def plot_curves(paths: list[str] | tuple[str, ...], out: Path, at: int | None = 
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(prog="python -m hiddpg.experiments.diagnosis",
                                 description="A one-change-at-a-time study as a table.")
-    p.add_argument("dirs", nargs="+", help="sweep or run directories")
+    p.add_argument("dirs", nargs="+", help="sweep or run directories, or one exported .json")
     p.add_argument("--at", type=int, default=None, help="cut every run at this episode")
     p.add_argument("--window", type=int, default=200, help="training episodes averaged")
     p.add_argument("--plot", type=Path, default=None, help="also draw the curves here")
+    p.add_argument("--export", type=Path, default=None,
+                   help="write the study's records here (JSON; the table and curves read it)")
     p.add_argument("--title", default="")
     p.add_argument("--line", action="append", default=[], metavar="LABEL=VALUE",
                    help="a horizontal reference line on the plot (repeatable)")
     args = p.parse_args(argv)
-    print(markdown(summarize(args.dirs, args.window, args.at)))
+    source = args.dirs
+    if args.export:
+        study = collect(args.dirs, args.window, args.at)
+        args.export.parent.mkdir(parents=True, exist_ok=True)
+        args.export.write_text(json.dumps(study, indent=1) + "\n")
+        print(f"wrote {args.export}")
+        source = [str(args.export)]
+    print(markdown(summarize(source, args.window, args.at)))
     if args.plot:
         lines = {k: float(v) for k, _, v in (s.rpartition("=") for s in args.line)}
-        print(f"wrote {plot_curves(args.dirs, args.plot, args.at, args.title, lines)}")
+        print(f"wrote {plot_curves(source, args.plot, args.at, args.title, lines)}")
 
 
 if __name__ == "__main__":  # pragma: no cover
