@@ -40,6 +40,7 @@ from flax import serialization
 
 from hiddpg.configs import TrainConfig, from_dict, to_dict
 from hiddpg.envs.registry import BUILTIN_TASKS, TASKS, restore_task
+from hiddpg.host.task import gym_task, is_gym_task, restore_gym_task
 from hiddpg.run_check import (
     CONFIG_REMEDY,
     load_state,
@@ -120,6 +121,8 @@ class Run:
                 "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
         if config.task not in BUILTIN_TASKS and config.task in TASKS:  # a user's task
             meta["task"] = TASKS[config.task].declaration()
+        elif is_gym_task(config.task):  # a Gymnasium task's declaration (hiddpg.host)
+            meta["gym_task"] = gym_task(config.task).declaration()
         with writing():
             tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.",
                                         suffix=".creating"))
@@ -145,6 +148,9 @@ class Run:
         meta = read_meta(path / CONFIG_FILE)
         try:  # a user's task is registered again; if that fails, using it says it is unknown
             restore_task(meta.get("task"))
+            config = meta.get("config")
+            restore_gym_task(config.get("task") if isinstance(config, dict) else None,
+                             meta.get("gym_task"))
         except ValueError:
             pass
         try:

@@ -208,12 +208,21 @@ _TRAINERS: dict[TrainConfig, Trainer] = {}
 
 
 def make_trainer(config: TrainConfig) -> Trainer:
-    """A :class:`Trainer` for ``config``, shared by equal configs in this process so that its
-    jitted functions compile once (the jit cache is keyed by the trainer object)."""
+    """A :class:`Trainer` for ``config`` (a :class:`hiddpg.host.HostTrainer` for a Gymnasium
+    task, ``gym:<id>``), shared by equal configs in this process so that its jitted functions
+    compile once (the jit cache is keyed by the trainer object)."""
     try:
         hash(config)
     except TypeError:  # an unhashable env override value
-        return Trainer(config)
+        return _build(config)
     if config not in _TRAINERS:
-        _TRAINERS[config] = Trainer(config)
+        _TRAINERS[config] = _build(config)
     return _TRAINERS[config]
+
+
+def _build(config: TrainConfig) -> Trainer:
+    if isinstance(config.task, str) and config.task.startswith("gym:"):
+        from hiddpg.host.trainer import HostTrainer  # the shell engine, with Gymnasium
+
+        return HostTrainer(config)
+    return Trainer(config)

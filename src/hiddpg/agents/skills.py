@@ -160,7 +160,11 @@ def arm_skills(env: Any, config: Any) -> ArmSkills:
 
 def task_skills(env: Any, config: Any) -> SkillPatterns:
     """The skills ``env``'s registered task declares, built for the h-DDPG ``config``;
-    ``ValueError`` saying what to declare if it declares none."""
+    ``ValueError`` saying what to declare if it declares none. An environment description
+    that declares its own (:class:`hiddpg.host.env.HostEnv`) answers itself."""
+    own = getattr(env, "declared_skills", None)
+    if own is not None:
+        return own(config)
     spec = spec_of(env)
     factory = spec.skill_factory() if spec is not None else None
     if factory is None:
