@@ -92,3 +92,11 @@ def test_an_exported_study_gives_the_same_table_without_the_runs(tmp_path):
     assert again == direct
     assert [r.split(" | ")[0] for r in direct.splitlines()[2:]] == [
         "| paper", "| agent.high.tau=0.01"]  # the budget is not a change
+
+
+def test_a_run_without_a_finished_chunk_is_skipped_with_a_note(tmp_path, capsys):
+    write_run(tmp_path / "a", 0.0)
+    Run.create(tmp_path / "b", make_config("hi-ddpg", "PuckTrajectory2", "paper"), SEEDS).close()
+    rows = diagnosis.summarize([str(tmp_path)])
+    assert [r["episodes"] for r in rows] == [40]
+    assert "skipped:" in capsys.readouterr().err

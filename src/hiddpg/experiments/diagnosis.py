@@ -27,12 +27,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from hiddpg.experiments.rundata import RunData, discover_runs, load_run
+from hiddpg.experiments.rundata import ExperimentError, RunData, discover_runs, load_run
 
 #: evaluations averaged per seed for ``score``
 LAST_EVALS = 5
@@ -90,7 +91,14 @@ def collect(paths: list[str] | tuple[str, ...], window: int = 200,
     searched), or those of an exported study (a ``.json`` file)."""
     if len(paths) == 1 and str(paths[0]).endswith(".json"):
         return json.loads(Path(paths[0]).read_text())
-    runs = [record(cut(load_run(p), at), window) for p in discover_runs(paths)]
+    runs = []
+    for path in discover_runs(paths):
+        try:
+            data = load_run(path)
+        except ExperimentError as err:  # a run that has not finished a chunk yet
+            print(f"skipped: {err}", file=sys.stderr)
+            continue
+        runs.append(record(cut(data, at), window))
     return {"at": at, "window": window, "last_evals": LAST_EVALS, "runs": runs}
 
 
