@@ -80,7 +80,8 @@ CHANGES: dict[str, Change] = {c.name: c for c in (
            "segment end (Alg. 1)", _eager_high),
 )}
 
-#: The changes of ``paper+``, in the order they are applied.
+#: The changes of ``paper+``, in the order they are applied: those docs/diagnosis.md shows are
+#: needed (empty while no candidate is shown to help).
 PAPER_PLUS: tuple[str, ...] = ()
 
 #: variant name -> its changes.
@@ -102,8 +103,11 @@ def describe(variant: str) -> str:
     if variant not in VARIANTS:
         raise ValueError(f"unknown variant {variant!r}; choose one of {list(VARIANTS)}")
     changes = VARIANTS[variant]
+    if variant == "paper":
+        return "paper: the paper as written"
     if not changes:
-        return f"{variant}: the paper as written"
+        return (f"{variant}: the paper as written; no generic change is shown to be needed "
+                "yet (docs/diagnosis.md)")
     return f"{variant}: the paper plus " + "; ".join(CHANGES[c].what for c in changes)
 
 

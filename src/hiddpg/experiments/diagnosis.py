@@ -179,6 +179,7 @@ def plot_curves(paths: list[str] | tuple[str, ...], out: Path, at: int | None = 
 
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.5))
+    levels = list((lines or {}).values())
     for rec in collect(paths, at=at)["runs"]:
         if "eval_env_return" not in rec["eval"]:
             continue
@@ -189,14 +190,18 @@ def plot_curves(paths: list[str] | tuple[str, ...], out: Path, at: int | None = 
         mean, n = values.mean(axis=0), values.shape[0]
         half = (stats.t.ppf(0.975, n - 1) * values.std(axis=0, ddof=1) / np.sqrt(n)
                 if n > 1 else np.zeros_like(mean))
+        levels += [float(mean.min()), float(mean.max())]
         (line,) = ax.plot(episodes, mean, lw=1.2, label=f"{rec['run']} ({n} seeds)")
         ax.fill_between(episodes, mean - half, mean + half, color=line.get_color(), alpha=0.15)
     for i, (label, value) in enumerate((lines or {}).items()):
         ax.axhline(value, color="k", lw=0.8, ls=("--", ":", "-.")[i % 3], label=label)
+    if levels:  # the means and reference lines in view; a wide band may leave it
+        span = max(levels) - min(levels) or 1.0
+        ax.set_ylim(min(levels) - 0.1 * span, max(levels) + 0.1 * span)
     ax.set_xlabel("training episode")
     ax.set_ylabel("evaluation environment return")
     ax.set_title(title)
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, -0.15))
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=120, bbox_inches="tight")
     plt.close(fig)

@@ -1,0 +1,35 @@
+"""docs/diagnosis.md's tables are what the committed study records give
+(``python -m hiddpg.experiments.diagnosis results/diagnosis/FILE.json``), and every change
+``paper+`` adds is one the page measures."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from hiddpg.experiments import diagnosis
+from hiddpg.variants import CHANGES, PAPER_PLUS
+
+ROOT = Path(__file__).resolve().parents[1]
+DOC = ROOT / "docs" / "diagnosis.md"
+RECORDS = sorted(re.findall(r"results/diagnosis/[\w.-]+\.json", DOC.read_text()))
+
+
+def test_the_page_names_its_records_and_they_are_committed():
+    assert RECORDS, "docs/diagnosis.md names no results/diagnosis/*.json"
+    for record in RECORDS:
+        assert (ROOT / record).is_file(), f"{record} is named in docs/diagnosis.md but missing"
+
+
+@pytest.mark.parametrize("record", RECORDS)
+def test_each_table_is_what_its_records_give(record):
+    table = diagnosis.markdown(diagnosis.summarize([str(ROOT / record)]))
+    assert table in DOC.read_text(), f"the table of {record} in docs/diagnosis.md is stale"
+
+
+def test_every_change_of_paper_plus_is_a_measured_candidate():
+    text = DOC.read_text()
+    for name in PAPER_PLUS:
+        assert name in CHANGES and f"`{name}`" in text
