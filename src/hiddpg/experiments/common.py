@@ -102,7 +102,7 @@ REPRODUCE_VARIANTS: dict[str, Variant] = {v.name: v for v in (
             hi_ddpg_sets=(("trajectory", CRITIC_DURATIONS), ("arm", ARM_HIGH_CRITIC)),
             paper_episodes=(("trajectory", 6000), ("puck", 3000), ("arm", 3000))),
 )}
-"""``quick`` is the default at quick scale, ``paper`` at paper scale."""
+#: The variant of each scale when ``--variant`` is not given.
 DEFAULT_VARIANT = {"quick": "quick", "paper": "paper"}
 
 
