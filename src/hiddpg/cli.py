@@ -24,6 +24,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "reproduce": ("hiddpg.commands.reproduce:main", "reproduce the paper's Figs. 3-8 and a report"),
     "report": ("hiddpg.commands.report:main",
                "redraw the figures and report of `reproduce` from its artifacts, no training"),
+    "claims": ("hiddpg.commands.report:claims",
+               "which of the paper's claims the outputs of `reproduce` bear out, no training"),
     "plot": ("hiddpg.commands.plot:main", "compare runs: return curves and t-test tiles"),
 }
 

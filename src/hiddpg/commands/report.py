@@ -1,21 +1,30 @@
-"""``hiddpg report``: redraw the figures and the report from an output directory's artifacts.
+"""``hiddpg report`` and ``hiddpg claims``: what the outputs of ``hiddpg reproduce`` give,
+read from their committed files, nothing trained.
 
 ::
 
     hiddpg report DIR [FIG ...]
+    hiddpg claims [DIR ...] [--bars] [--json] [--out FILE]
 
-Reads ``DIR/artifacts`` (written by ``hiddpg reproduce --out DIR``), never ``DIR/runs``, and
-trains nothing: every figure whose artifacts are there (or the figures named) is drawn again
+``report`` reads ``DIR/artifacts`` (written by ``hiddpg reproduce --out DIR``), never
+``DIR/runs``: every figure whose artifacts are there (or the figures named) is drawn again
 to ``DIR/figures``, its section to ``DIR/sections`` and ``DIR/report.md`` rewritten, with the
 numbers ``hiddpg reproduce`` computed from the run directories.
+
+``claims`` tables which of the paper's claims each output bears out (one row per claim, one
+column per DIR; default: :data:`hiddpg.experiments.claims.DEFAULT_DIRS`) from its sections and
+artifacts (:mod:`hiddpg.experiments.claims`); a DIR that does not exist is a column of
+"not run yet".
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from collections.abc import Sequence
+from pathlib import Path
 
 from hiddpg.commands.common import USAGE_ERRORS, UsageError, report_error, run_command
 from hiddpg.commands.common import Parser as _Parser
@@ -25,6 +34,7 @@ from hiddpg.experiments.rundata import ExperimentError
 from hiddpg.run_files import RunFileError
 
 PROG = "hiddpg report"
+CLAIMS_PROG = "hiddpg claims"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -81,6 +91,54 @@ def _redraw(args: argparse.Namespace, prepared) -> int:
     except (ExperimentError, RunFileError) as err:
         return report_error(PROG, err, code=1)
     print(f"wrote {report} ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+# ---------------------------------------------------------------------------- hiddpg claims
+
+
+def build_claims_parser() -> argparse.ArgumentParser:
+    from hiddpg.experiments.claims import DEFAULT_DIRS
+
+    p = _Parser(prog=CLAIMS_PROG, description="Which of the paper's claims each output of "
+                "`hiddpg reproduce` bears out, from its sections and artifacts (no training).")
+    p.add_argument("dirs", nargs="*", metavar="DIR", default=list(DEFAULT_DIRS),
+                   help=f"output directories of `hiddpg reproduce` (default: "
+                        f"{' '.join(DEFAULT_DIRS)})")
+    p.add_argument("--bars", action="store_true",
+                   help="also print the claims: the paper's words and the bar of each")
+    p.add_argument("--json", action="store_true",
+                   help="print the verdicts, numbers and seeds as JSON instead")
+    p.add_argument("--out", default=None, metavar="FILE", help="also write the output to FILE")
+    return p
+
+
+def claims(argv: Sequence[str] | None = None) -> int:
+    """Run ``hiddpg claims`` with ``argv``; returns the exit code."""
+    return run_command(CLAIMS_PROG, argv, build_claims_parser, _assess, _print_claims,
+                       errors=(*USAGE_ERRORS, ExperimentError))
+
+
+def _assess(args: argparse.Namespace):
+    from hiddpg.experiments.claims import assess
+
+    for d in args.dirs:
+        if not Path(d).is_dir():
+            print(f"{CLAIMS_PROG}: {d} does not exist: every claim is not run yet there",
+                  file=sys.stderr)
+    return assess(args.dirs)
+
+
+def _print_claims(args: argparse.Namespace, assessment) -> int:
+    from hiddpg.experiments.claims import definitions_markdown, markdown
+
+    if args.json:
+        text = json.dumps(assessment.to_json(), indent=2)
+    else:
+        text = markdown(assessment) + ("\n\n" + definitions_markdown() if args.bars else "")
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text + "\n")
     return 0
 
 
