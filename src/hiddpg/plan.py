@@ -20,7 +20,7 @@ import jax
 import numpy as np
 
 from hiddpg.configs import TrainConfig
-from hiddpg.envs import task_name
+from hiddpg.presets import task_name
 from hiddpg.train import Trainer
 
 

@@ -34,7 +34,9 @@ from hiddpg.configs import (
     NoiseConfig,
     TrainConfig,
 )
-from hiddpg.envs import TASKS, task_name
+from hiddpg.envs import TASKS
+from hiddpg.envs import task_name as _registered_name
+from hiddpg.host.task import is_gym_task
 from hiddpg.overrides import apply_overrides
 
 PRESETS = ("paper", "paper+", "quick")
@@ -46,9 +48,18 @@ BUDGET_OF = {"paper+": "paper"}
 STABILIZE = {"tau": 0.01, "action_l2": 1.0}
 
 
+def task_name(task: str) -> str:
+    """A registered task's name (``hiddpg/Name-v0`` -> ``Name``); a Gymnasium task of the host
+    engine (``gym:<id>``, :mod:`hiddpg.host`) as it is: none of the per-task choices below
+    names one."""
+    return task if is_gym_task(task) else _registered_name(task)
+
+
 def task_family(task: str) -> str:
-    """The family the task declares (:func:`hiddpg.register_task`): puck, arm or custom."""
-    return TASKS[task_name(task)].family
+    """The family the task declares (:func:`hiddpg.register_task`): puck, arm or custom; a
+    Gymnasium task (``gym:<id>``) is ``custom``: the presets' generic values, nothing of the
+    puck or arm tasks."""
+    return "custom" if is_gym_task(task) else TASKS[task_name(task)].family
 
 
 #: Tasks that terminate (collisions): critics on the environment reward do not bootstrap at the

@@ -210,12 +210,15 @@ def config(algo: str, task: str) -> TrainConfig:
 
 def test_hierarchical_agents_without_their_declarations():
     with pytest.raises(ValueError, match=r"^hi-ddpg needs a goal space and gym:Pendulum-v1 "
-                                         r"declares none: .*register_gym_task\('Pendulum-v1', "
+                                         r"declares none: .*indices 0\.\.2\), on the command "
+                                         r"line one --goal INDEX:LOW:HIGH per entry, in Python "
+                                         r".*register_gym_task\('Pendulum-v1', "
                                          r"goal=\{index: \(low, high\), \.\.\.\}\)$") as info:
         HostTrainer(config("hi-ddpg", "gym:Pendulum-v1"))
     one_line(info)
     with pytest.raises(ValueError, match=r"^h-DDPG has no skill patterns for gym:Pendulum-v1: "
-                                         r"declare them with .*skills=\.\.\.\)") as info:
+                                         r"declare a factory .*--skills MODULE:FUNCTION, "
+                                         r".*skills=\.\.\.\)") as info:
         make_trainer(config("h-ddpg", "gym:Pendulum-v1"))  # the run loop's trainer, too
     one_line(info)
 

@@ -11,7 +11,11 @@ every goal after the first; for the other algorithms ``env_return``), ``env_retu
 of the environment's rewards), ``switches`` and ``length``, then their mean and standard
 deviation over the seeds. ``--gif FILE`` draws seed ``S``'s episode (default: the run's first
 seed) with :mod:`hiddpg.render`: HI-DDPG's current goal and its switch points, h-DDPG's
-current skill and the steps where it changed, the ``env_return`` so far, and a legend.
+current skill and the steps where it changed, the ``env_return`` so far, and a legend. A
+Gymnasium task's run (``gym:<id>``, :mod:`hiddpg.host`) is drawn by the environment itself, its
+``render_mode="rgb_array"`` frames of the replayed episode (:mod:`hiddpg.host.gif`); one that
+cannot draw them is said so before anything is evaluated (exit code 2). Its declaration (goal,
+skills) comes from the run directory.
 
 ``--gif`` must name a file ending in ``.gif`` that is not a directory; its missing parent
 directories are created. ``DIR`` and ``--gif`` are checked before anything is loaded: a bad
@@ -23,12 +27,15 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 
 from hiddpg.commands.common import Parser as _Parser
 from hiddpg.commands.common import UsageError, run_command
+from hiddpg.host.declare import declarations_scope
+from hiddpg.host.task import is_gym_task
 from hiddpg.paths import existing_dir, gif_path
 from hiddpg.runs import Run, make_trainer
 from hiddpg.train import eval_keys
@@ -58,15 +65,17 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``hiddpg eval`` with ``argv``; returns the exit code (2 on a bad command line)."""
-    return run_command(PROG, argv, build_parser, _open, _evaluate,
-                       errors=(UsageError, ValueError, FileNotFoundError))
+    with declarations_scope():  # a run's Gymnasium declaration, for this command only
+        return run_command(PROG, argv, build_parser, _open, _evaluate,
+                           errors=(UsageError, ValueError, FileNotFoundError))
 
 
 def _open(args: argparse.Namespace) -> tuple[Run, Any, Any, int]:
     """The run to evaluate, its trainer and its checkpointed state and episodes; a usage error
     if the GIF path is unusable, or the run directory, the seed or the checkpoint is missing
     (the paths are checked first), and a one-line error naming a checkpoint or config that
-    cannot be read (:class:`hiddpg.run_files.RunFileError`)."""
+    cannot be read (:class:`hiddpg.run_files.RunFileError`), or a Gymnasium task's
+    environment cannot draw the GIF."""
     if args.gif is not None:
         args.gif = gif_path(args.gif, "--gif")
     run = Run.open(existing_dir(args.run, "DIR"))
@@ -77,13 +86,24 @@ def _open(args: argparse.Namespace) -> tuple[Run, Any, Any, int]:
         raise UsageError(f"{run.path} has no checkpoint yet")
     trainer = make_trainer(run.config)
     state, done = run.load_checkpoint(trainer)
+    if _drawn_by_gymnasium(args, run, trainer):
+        from hiddpg.host.gif import open_renderer
+
+        open_renderer(trainer.env).close()  # it can draw: checked before evaluating
     return run, trainer, state, done
+
+
+def _drawn_by_gymnasium(args: argparse.Namespace, run: Run, trainer: Any) -> bool:
+    """The GIF is the environment's own frames: a Gymnasium task, not one of our adapters."""
+    return (args.gif is not None and is_gym_task(run.config.task)
+            and trainer.env.core is None)
 
 
 def _evaluate(args: argparse.Namespace, opened: tuple[Run, Any, Any, int]) -> int:
     """Evaluate every seed from the checkpoint, print the table and write the GIF."""
     run, trainer, state, done = opened
-    metrics, traj = trainer.evaluate_seeds(state, eval_keys(args.key, run.seeds))
+    keys = eval_keys(args.key, run.seeds)
+    metrics, traj = trainer.evaluate_seeds(state, keys)
     metrics = {k: np.asarray(v) for k, v in metrics.items()}
     shown = [args.seed] if args.seed is not None else list(run.seeds)
     print(f"{run.config.algo} on {run.config.task}, {done} episodes, noise-free evaluation")
@@ -102,7 +122,19 @@ def _evaluate(args: argparse.Namespace, opened: tuple[Run, Any, Any, int]) -> in
         one = {k: np.asarray(v)[i] for k, v in traj.items()}
         title = (f"{run.config.algo} seed {seed}, {done} episodes: "
                  f"env_return {float(metrics['env_return'][i]):.2f}")
-        path = write_episode_gif(trainer, one, args.gif, title)
+        if _drawn_by_gymnasium(args, run, trainer):
+            from hiddpg.host.gif import open_renderer, write_host_gif
+
+            path, note = write_host_gif(trainer.env, open_renderer(trainer.env), one, keys[i],
+                                        args.gif, title)
+            if note:
+                print(note)
+        elif is_gym_task(run.config.task):  # one of our tasks through its adapter
+            env = trainer.env
+            drawn = SimpleNamespace(env=env.core, env_params=env.params)
+            path = write_episode_gif(drawn, one, args.gif, title)
+        else:
+            path = write_episode_gif(trainer, one, args.gif, title)
         print(f"wrote {path}")
     return 0
 

@@ -4,12 +4,18 @@
 
     hiddpg train ALGO TASK [--preset quick|paper|paper+] [--seeds S] [--episodes N]
                  [--set key=value ...] [--out DIR] [--name NAME]
+                 [--goal INDEX:LOW:HIGH ...] [--skills MODULE:FUNCTION]
     hiddpg train --resume DIR [--episodes N]
 
 A bare ``hiddpg train ALGO TASK`` trains the quick preset on seeds 0-4 (minutes);
 ``--preset paper`` (or ``paper+``) is the paper's budget on its 15 seeds 0-14 (hours on two
 cores). Before training the run says what it will do (seeds, episodes, environment steps,
 checkpoint size) and, after its first chunk, how long it will take.
+
+A Gymnasium environment is a TASK too (``gym:<id>``, a bare id, or ``module:Env-v0``): it
+trains on the host-loop engine (:mod:`hiddpg.host`) with the preset's generic values;
+``--goal`` declares HI-DDPG's goal entries and ``--skills`` h-DDPG's skills
+(:mod:`hiddpg.host.declare`), recorded in the run directory for ``--resume`` and ``eval``.
 
 Every config or path error (unknown algorithm, task or ``--set`` key, a value out of range,
 bad seeds, a ``--name`` that is not a plain name) is one line on stderr and exit code 2,
@@ -23,6 +29,7 @@ checkpoint (:mod:`hiddpg.stopping`). The loop itself is :func:`hiddpg.runner.tra
 from __future__ import annotations
 
 import argparse
+import json
 import re
 import sys
 from collections.abc import Callable, Sequence
@@ -30,10 +37,18 @@ from collections.abc import Callable, Sequence
 from hiddpg.algorithms import algorithm_names
 from hiddpg.commands.common import Parser as _Parser
 from hiddpg.commands.common import UsageError, argv_or_help
+from hiddpg.host.declare import (
+    declarations_scope,
+    declare,
+    directory_name,
+    sources_line,
+    value_sources,
+)
+from hiddpg.host.task import is_gym_task
 from hiddpg.paths import existing_dir, output_dir
 from hiddpg.plan import describe
 from hiddpg.reporter import ConsoleReporter
-from hiddpg.run_files import RunFileError, RunLockedError
+from hiddpg.run_files import RunFileError, RunLockedError, atomic_write
 from hiddpg.runner import (
     FAILED,
     FINISHED,
@@ -44,9 +59,9 @@ from hiddpg.runner import (
     prepare_new,
     train_run,
 )
-from hiddpg.runs import Run, default_name, make_trainer
+from hiddpg.runs import CONFIG_FILE, Run, default_name, make_trainer
 from hiddpg.stopping import on_stop
-from hiddpg.summary import result_line
+from hiddpg.summary import final_evaluation, result_line, score_text
 from hiddpg.train import Trainer
 
 PROG = "hiddpg train"
@@ -58,8 +73,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("algo", nargs="?", metavar="ALGO",
                    help=f"one of {', '.join(algorithm_names())}")
     p.add_argument("task", nargs="?", metavar="TASK",
-                   help="a task, e.g. PuckTrajectory2 (see `hiddpg envs list`), or your "
-                   "environment as module:Class (imported and registered)")
+                   help="a task, e.g. PuckTrajectory2 (see `hiddpg envs list`), your "
+                   "environment as module:Class (imported and registered), or a Gymnasium "
+                   "environment: gym:<id>, a bare id (Reacher-v5) or module:Env-v0, trained "
+                   "on the host-loop engine")
     p.add_argument("--seeds", default=None,
                    help="seeds: a range '0-14', a list '0,3,5' or one '7' (default: 0-4 for "
                    "the quick preset, the paper's 0-14 for paper and paper+)")
@@ -73,6 +90,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="runs", help="parent directory of runs (default runs/)")
     p.add_argument("--name", default=None, help="run name, a directory made in OUT "
                    "(default ALGO-TASK-TIMESTAMP)")
+    p.add_argument("--goal", action="append", default=[], metavar="INDEX:LOW:HIGH",
+                   help="Gymnasium task: an observation entry HI-DDPG's goals fix, with its "
+                   "bounds, e.g. --goal 8:-0.3:0.3 --goal 9:-0.3:0.3 (one per entry; needed "
+                   "by hi-ddpg unless the environment declares a goal space)")
+    p.add_argument("--skills", default=None, metavar="MODULE:FUNCTION",
+                   help="Gymnasium task: h-DDPG's skills, a factory (env, config) -> "
+                   "hiddpg.agents.skills.SkillPatterns (needed by h-ddpg unless the "
+                   "environment declares them)")
     p.add_argument("--resume", default=None, metavar="DIR",
                    help="continue the run in DIR from its last checkpoint")
     return p
@@ -109,7 +134,8 @@ def _prepare(args: argparse.Namespace) -> tuple[Run, Trainer]:
     if args.resume:
         given = [n for n, v in (("ALGO", args.algo), ("TASK", args.task), ("--name", args.name),
                                 ("--set", args.sets), ("--seeds", args.seeds),
-                                ("--preset", args.preset)) if v]
+                                ("--preset", args.preset), ("--goal", args.goal),
+                                ("--skills", args.skills)) if v]
         if given:
             raise UsageError(f"--resume takes the run's config from {args.resume}; "
                              f"drop {', '.join(given)}")
@@ -133,13 +159,20 @@ def _prepare(args: argparse.Namespace) -> tuple[Run, Trainer]:
     out = output_dir(args.out, "--out")
     name = check_name(args.name) if args.name is not None else None
     sets = list(args.sets) + ([f"episodes={args.episodes}"] if args.episodes is not None else [])
-    config = make_config(args.algo, args.task, preset, sets)
+    task = declare(args.task, args.goal, args.skills)  # a Gymnasium task's declaration
+    config = make_config(args.algo, task, preset, sets)
     trainer = make_trainer(config)  # builds env and agent: validates env overrides
-    path = out / (name or default_name(config.algo, config.task))
+    gym = is_gym_task(config.task)
+    path = out / (name or default_name(config.algo, directory_name(task) if gym else task))
     try:
-        return prepare_new(config, seeds, path), trainer
+        run = prepare_new(config, seeds, path)
     except FileExistsError as err:
         raise UsageError(f"{err}; choose another --name or --resume it") from None
+    if gym:  # where the values came from, next to the declaration in config.json
+        meta = json.loads((run.path / CONFIG_FILE).read_text())
+        meta["sources"] = value_sources(config, trainer.env)
+        atomic_write(run.path / CONFIG_FILE, (json.dumps(meta, indent=2) + "\n").encode())
+    return run, trainer
 
 
 def main(argv: Sequence[str] | None = None,
@@ -149,6 +182,11 @@ def main(argv: Sequence[str] | None = None,
     argv = argv_or_help(argv, build_parser)
     if argv is None:
         return 0
+    with declarations_scope():  # a Gymnasium declaration lasts as long as the command
+        return _main(argv, on_chunk)
+
+
+def _main(argv: list[str], on_chunk: Callable[[Run, int], None] | None) -> int:
     try:
         args = build_parser().parse_args(argv)
         run, trainer = _prepare(args)
@@ -163,8 +201,10 @@ def main(argv: Sequence[str] | None = None,
               f"do. Train it longer with: hiddpg train --resume {run.path} --episodes N "
               f"(N > {run.config.episodes})", file=sys.stderr)
         run.close()
-        print(result_line(run, _last_wall(run)))
+        print(_result_line(run, _last_wall(run)))
         return 0
+    if is_gym_task(run.config.task):
+        print(sources_line(value_sources(trainer.config, trainer.env)))
     reporter = ConsoleReporter()
     def stopped(sig: str) -> None:  # also before train_run has started
         mark_stopped(run, sig)
@@ -181,8 +221,21 @@ def main(argv: Sequence[str] | None = None,
     if result.status == FAILED:
         print(f"{PROG}: error: {result.error}", file=sys.stderr)
         return 1
-    print(result_line(run, result.wall_time))
+    print(_result_line(run, result.wall_time))
     return 0
+
+
+def _result_line(run: Run, wall: float) -> str:
+    """The line a run ends with (:func:`hiddpg.summary.result_line`); a Gymnasium task's has
+    no baselines (they are jitted rollouts of our own tasks)."""
+    if not is_gym_task(run.config.task):
+        return result_line(run, wall)
+    finals, env = final_evaluation(run)
+    tail = f" | wall {wall:.1f} s | run {run.path}"
+    if not finals:
+        return "no evaluation recorded" + tail
+    label = "environment return" if env else "return"
+    return "final evaluation: " + score_text(finals, label) + tail
 
 
 def _finished(run: Run, trainer: Trainer) -> bool:

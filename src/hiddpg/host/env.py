@@ -62,6 +62,8 @@ class HostEnv:
     skills: Any
     make_one: Callable[[], gymnasium.Env]
     vectorization: str
+    make_render: Callable[[], gymnasium.Env] | None = None
+    """Builds one environment with ``render_mode="rgb_array"`` (``hiddpg eval --gif``)."""
 
     def __post_init__(self) -> None:
         identity = bool(np.all(self.box_low == self.action_low)
@@ -89,9 +91,10 @@ class HostEnv:
 
         if self.skills is None:
             raise ValueError(
-                f"h-DDPG has no skill patterns for {self.name}: declare them with "
-                f"hiddpg.host.register_gym_task({self.name[4:]!r}, skills=...), a factory "
-                "(env, config) -> SkillPatterns (see hiddpg.agents.skills)")
+                f"h-DDPG has no skill patterns for {self.name}: declare a factory "
+                "(env, config) -> hiddpg.agents.skills.SkillPatterns, on the command line "
+                "--skills MODULE:FUNCTION, in Python hiddpg.host.register_gym_task("
+                f"{self.name[4:]!r}, skills=...)")
         factory = resolve(self.skills)
         skills = factory(self.core if self.core is not None else self, config)
         if not isinstance(skills, SkillPatterns):
@@ -118,7 +121,8 @@ class HostEnv:
         return f"HostEnv({self.name!r})"
 
 
-def _one_line(err: BaseException) -> str:
+def one_line(err: BaseException) -> str:
+    """An error's message on one line."""
     return " ".join(str(err).split())
 
 
@@ -181,7 +185,7 @@ def make_host_env(task: str, **kwargs: Any) -> HostEnv:
     try:
         env = make_one()
     except (gymnasium.error.Error, TypeError, ValueError, ImportError) as err:
-        raise ValueError(f"{task}: cannot make the environment: {_one_line(err)}") from None
+        raise ValueError(f"{task}: cannot make the environment: {one_line(err)}") from None
     try:
         _check_spaces(task, env)
         horizon = _horizon(task, declared, env)
@@ -203,6 +207,7 @@ def make_host_env(task: str, **kwargs: Any) -> HostEnv:
             name=task, obs_dim=obs_dim, action_dim=int(act.shape[0]), action_low=low,
             action_high=high, box_low=np.asarray(act.low), box_high=np.asarray(act.high),
             dt=float(dt) if dt else 1.0, goal_space=goal, horizon=horizon, params=params,
-            core=core, skills=skills, make_one=make_one, vectorization=declared.vectorization)
+            core=core, skills=skills, make_one=make_one, vectorization=declared.vectorization,
+            make_render=_factory(declared, {**kwargs, "render_mode": "rgb_array"}))
     finally:
         env.close()

@@ -47,7 +47,7 @@ _split_seeds = jax.jit(over_seeds(_split))
 @dataclasses.dataclass(frozen=True, eq=False)
 class Engine:
     """What a host run computes with: the environment description, the agent, its training
-    and evaluation episodes and the jitted initial state of a batch of seeds."""
+    and evaluation episodes and the initial state of a batch of seeds."""
 
     env: HostEnv
     agent: Any
@@ -55,7 +55,14 @@ class Engine:
     evaluate: HostEpisodes
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "init_seeds", jax.jit(jax.vmap(self.init)))
+        object.__setattr__(self, "_init_one", jax.jit(self.init))
+
+    def init_seeds(self, keys: jax.Array) -> RunState:
+        """Every seed's untrained state, stacked: one jitted seed after another (compiling the
+        ``vmap`` of an agent's initialisation takes several times as long, for a function
+        called once a run; the values are the same)."""
+        states = [self._init_one(keys[i]) for i in range(keys.shape[0])]
+        return jax.tree.map(lambda *xs: jnp.stack(xs), *states)
 
     def init(self, key: jax.Array) -> RunState:
         """One seed's untrained state, drawn as :meth:`hiddpg.train.Trainer.init` draws it."""
@@ -143,8 +150,9 @@ def _build_engine(config: TrainConfig, override: Callable[[Any], Any] | None) ->
     if isinstance(config.agent, HIDDPGConfig) and env.goal_space is None:
         raise ValueError(
             f"{config.algo} needs a goal space and {env.name} declares none: declare which "
-            f"observation entries a goal fixes with hiddpg.host.register_gym_task("
-            f"{env.name[4:]!r}, goal={{index: (low, high), ...}})")
+            f"observation entries a goal fixes (indices 0..{env.obs_dim - 1}), on the command "
+            f"line one --goal INDEX:LOW:HIGH per entry, in Python hiddpg.host."
+            f"register_gym_task({env.name[4:]!r}, goal={{index: (low, high), ...}})")
     agent = make_agent(config.algo, config.agent, env)
     if override is not None:
         agent = override(agent)
