@@ -81,6 +81,16 @@ SKIPPED: dict[str, str] = {
     "hiddpg sweep --algos ddpg --tasks PuckObstacle --seeds 0-4 --presets quick "
     "--grid agent.tau=0.01,0.005 --out sweeps/tau":
         "trains 2 runs of the full quick budget (5 seeds x 1500 episodes), minutes",
+    "hiddpg train ddpg InvertedPendulum-v5 --episodes 200":
+        "MuJoCo, 5 seeds x 200 episodes on the host loop, minutes",
+    "hiddpg train hi-ddpg gym:Reacher-v5 --goal 8:-0.3:0.3 --goal 9:-0.3:0.3 --seeds 0-4 "
+    "--episodes 300 --name reacher":
+        "MuJoCo, 5 seeds x 300 episodes on the host loop, minutes (tests/host/"
+        "test_host_mujoco.py trains, resumes and evaluates it on a tiny budget)",
+    "hiddpg train --resume runs/reacher --episodes 600": "continues the Reacher run above",
+    "hiddpg eval runs/reacher --gif reacher.gif":
+        "reads the Reacher run above; MuJoCo frames need an OpenGL context (tests/host/"
+        "test_host_cli.py draws a Gymnasium env's own frames)",
 }
 
 #: per Python snippet of the README, in order: what its output matches
