@@ -145,6 +145,7 @@ def test_eval_replays_and_draws_with_the_envs_frames(line_run, tmp_path, capsys)
         np.testing.assert_allclose(frame, expected, atol=8)
 
 
+@pytest.mark.filterwarnings("ignore:.*render_mode='rgb_array' that is not in the possible")
 def test_a_gif_needs_an_env_that_draws_rgb_array(line_run, tmp_path, capsys):
     blind = tmp_path / "blind"
     shutil.copytree(line_run, blind)
