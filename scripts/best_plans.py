@@ -3,7 +3,7 @@
 For each seed of a trained HI-DDPG run, search two-goal plans ``(g1 for T1 steps, then g2)``
 by grid, driving the run's learned low level without noise, and compare the best plan's return
 with the learned high level's (its noise-free evaluation). A large gap means the high level's
-optimisation is what fails, not the low level (docs/results.md).
+optimisation is what fails, not the low level.
 
 * ``PuckTrajectory2``: a coarse-to-fine grid around the reference goals, ``T1`` in 11..19; it
   also reports the return of the reference goals themselves, how far the best goals lie

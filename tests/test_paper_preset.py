@@ -78,8 +78,8 @@ def test_ddpg_and_h_ddpg_paper_presets(task):
 
 
 def test_the_quick_preset_keeps_its_stabilisers():
-    """The quick preset shrinks the stabilised configuration, not the paper's: its numbers are
-    those of docs/results.md's quick scale."""
+    """The quick preset shrinks the stabilised configuration, not the paper's (docs/deviations.md
+    §2.2): ``hiddpg reproduce --scale quick`` trains these stabilisers."""
     agent = make_config("hi-ddpg", "PuckObstacle", "quick").agent
     assert agent.high.tau == agent.low.tau == 0.01 and agent.high.invert_gradients
     assert agent.low.action_l2 == 1.0 and agent.eager_high is not None

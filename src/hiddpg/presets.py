@@ -84,7 +84,7 @@ HOLD_CHOICE = HoldChoice(explore=0.1)
 
 #: HI-DDPG on the trajectory tasks at ``hiddpg reproduce --scale paper``: the critic chooses
 #: the duration, the low level learns from hindsight goals and to arrive at rest, no model
-#: gradient (the high model would not see the duration) [decision; docs/results.md].
+#: gradient (the high model would not see the duration) [decision; docs/deviations.md §2.3].
 CRITIC_DURATIONS = (
     "agent.choice=critic-durations", "agent.choice.explore=0.5",
     "agent.model_weight=0", "agent.use_model=false",
@@ -94,7 +94,7 @@ CRITIC_DURATIONS = (
 
 #: HI-DDPG on ArmObstacle at ``hiddpg reproduce --scale paper``: hindsight actions for the
 #: high level and a Huber loss for its critic, δ 10 then 3 from episode 2160 [decision;
-#: docs/results.md].
+#: docs/deviations.md §2.3].
 ARM_HIGH_CRITIC = ("agent.high_hindsight.probability=1", "agent.high.huber.delta=10",
                    "agent.high.huber.late_delta=3", "agent.high.huber.late_episode=2160")
 

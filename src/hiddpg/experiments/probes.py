@@ -7,8 +7,8 @@ for, it compares the critic's ``Q_H(s_0, (g, T'))`` with the truth: the high-lev
 ``f`` (environment reward minus the switch costs) of holding ``g`` for ``T'`` steps and then
 following the learned high level, with the run's own low level, noise-free — the evaluation
 episode (:meth:`HIDDPG.evaluate`) with its first action replaced
-(:class:`~hiddpg.experiments.overrides.FirstAction`). docs/results.md uses it to
-show that the duration critic is wrong where its actor does not go
+(:class:`~hiddpg.experiments.overrides.FirstAction`). It shows whether the duration critic
+is right for the durations its actor does not choose, where its policy gradient has no data
 (``scripts/first_segment.py`` prints the table).
 """
 
