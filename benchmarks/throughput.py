@@ -38,17 +38,10 @@ The FLOP formula is cross-checked against XLA's own cost analysis of one jitted 
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import importlib.util
 import json
 import os
 import platform
-import re
-import statistics
-import subprocess
-import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 from hiddpg.devices import request_cpu_devices
@@ -57,12 +50,24 @@ request_cpu_devices()  # as the hiddpg command does: one CPU device per core (hi
 
 import jax  # noqa: E402  (after the device request)
 import numpy as np  # noqa: E402
+from _timing import (  # noqa: E402
+    DOC,
+    Row,
+    bench_config,
+    every_step,
+    high_updates_per_step,
+    load,
+    sb3_learn,
+    strongest,
+    time_chunks,
+    worker,
+)
+from _timing import time_sb3 as _time_sb3  # noqa: E402
+from _timing import write_section as _write_section  # noqa: E402
 from flops import flops_per_step, numpy_gflops, xla_update_flops  # noqa: E402
 
-from hiddpg.presets import make_config  # noqa: E402
-from hiddpg.train import Trainer, seed_keys  # noqa: E402
+from hiddpg.train import Trainer  # noqa: E402
 
-DOC = Path(__file__).resolve().parents[1] / "docs" / "performance.md"
 TASK = "PuckTrajectory2"
 HORIZON = 30  # PuckTrajectory2's episode length (checked against the env below)
 SECTION = "## Training throughput"
@@ -86,74 +91,12 @@ def numpy_rates(algo: str, threads: int | None) -> dict:
 
 
 def _worker(args: list[str], env: dict | None = None) -> dict:
-    proc = subprocess.run([sys.executable, __file__, "--worker", *args], env=env,
-                          capture_output=True, text=True, check=False)
-    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
-    if proc.returncode or not lines:
-        raise RuntimeError(f"worker {args} failed:\n{proc.stdout}\n{proc.stderr}")
-    return json.loads(lines[-1])
+    return worker(__file__, args, env)
 
 
 # -- timing --------------------------------------------------------------------------------------
-@dataclass
-class Row:
-    name: str
-    seeds: int
-    steps: int  # env steps per timed run
-    walls: list[float]
-    cpus: list[float]
-    flops: int  # matmul FLOPs per env step
-    core_gflops: float = float("nan")  # NumPy, 1 thread, this row's matmul shapes
-    machine_gflops: float = float("nan")  # NumPy, whole machine, this row's matmul shapes
-    compile_s: float = 0.0
-    note: str = ""
-    load: float = dataclasses.field(default_factory=lambda: load())  # when the row ended
-
-    @property
-    def best(self) -> int:
-        return min(range(len(self.walls)), key=self.walls.__getitem__)
-
-    @property
-    def rate(self) -> float:
-        return self.steps / self.walls[self.best]
-
-    @property
-    def median_rate(self) -> float:
-        return self.steps / statistics.median(self.walls)
-
-    @property
-    def cpu_rate(self) -> float:
-        return self.steps / min(self.cpus)
-
-    @property
-    def cores(self) -> float:
-        return self.cpus[self.best] / self.walls[self.best]
-
-    @property
-    def gflops(self) -> float:
-        return self.rate * self.flops / 1e9
-
-
-#: benchmark variants ``ALGO@NAME``: the preset plus these overrides
-def _every_step(agent) -> bool:
-    """Whether HI-DDPG's high level updates at every step (``EagerHighLevel``)."""
-    return agent.eager_high is not None and agent.eager_high.every_step
-
-
-VARIANTS = {"every-step": ["agent.eager_high.every_step=true"]}
-
-
 def ours_config(algo: str, episodes: int, repeats: int):
-    algo, _, variant = algo.partition("@")
-    sets = [f"episodes={episodes * (repeats + 1)}", f"eval_every={episodes}",
-            f"chunk_episodes={episodes}", *VARIANTS.get(variant, [])]
-    if algo == "h-ddpg":
-        sets.append("agent.skill.learning_starts=0")
-    else:
-        sets.append("agent.learning_starts=0")
-    if algo in ("hi-ddpg", "hi-ddpg-wo-model"):
-        sets.append("agent.high_learning_starts=0")
-    return make_config(algo, TASK, "paper", sets)
+    return bench_config(algo, TASK, episodes, repeats)
 
 
 NAMES = {"ddpg": "DDPG (ours)", "hi-ddpg": "HI-DDPG (ours), Alg. 1: H updates at segment ends",
@@ -165,80 +108,28 @@ def time_ours(algo: str, seeds: int, episodes: int, repeats: int) -> Row:
     trainer = Trainer(ours_config(algo, episodes, repeats))
     horizon = trainer.env.max_steps(trainer.env_params)
     assert horizon == HORIZON, horizon
-    state = trainer.init_seeds(seed_keys(list(range(seeds))))
-    jax.block_until_ready(state)
-    start = time.perf_counter()
-    out = trainer.run_chunk_seeds(state, episodes)  # compiles, then runs the first chunk
-    jax.block_until_ready(out)
-    compile_s = time.perf_counter() - start
-    state = out[0]
-    walls, cpus = [], []
-    for _ in range(repeats):
-        start, start_cpu = time.perf_counter(), time.process_time()
-        out = trainer.run_chunk_seeds(state, episodes)
-        jax.block_until_ready(out)
-        walls.append(time.perf_counter() - start)
-        cpus.append(time.process_time() - start_cpu)
-        state = out[0]
+    walls, cpus, compile_s, out = time_chunks(trainer, seeds, episodes, repeats)
     steps = int(np.asarray(out[1]["length"]).sum())  # seeds x episodes x 30
     assert steps == seeds * episodes * HORIZON, steps
-    high = 1.0
-    if trainer.config.algo.startswith("hi-ddpg") and (
-            not _every_step(trainer.config.agent)):  # one H update per segment
-        high = float((np.asarray(out[1]["switches"]) + 1).sum()) / steps
+    high = high_updates_per_step(trainer.config, out[1], steps)  # one H update per segment
     return Row(NAMES.get(algo, algo), seeds, steps, walls, cpus,
                flops_per_step(algo, trainer, high).flops, compile_s=compile_s,
                note=f"{high:.3f} high-level updates per step" if high < 1 else "")
 
 
 def _sb3_worker(threads: int, steps: int, warmup: int, repeats: int) -> dict:
-    try:
-        import gymnasium as gym
-        import stable_baselines3
-        import torch
-        from stable_baselines3 import DDPG
-    except ImportError as err:
-        return {"skip": f"{err.name} is not installed"}
-    import hiddpg  # noqa: F401  (registers the gymnasium ids)
-
-    if threads:
-        torch.set_num_threads(threads)
-    model = DDPG(
-        "MlpPolicy", gym.make(f"hiddpg/{TASK}-v0"), learning_rate=1e-3, buffer_size=100_000,
-        learning_starts=0, batch_size=64, tau=0.001, gamma=0.99, train_freq=1,
-        gradient_steps=1, policy_kwargs={"net_arch": {"pi": [300, 300], "qf": [300, 300]}},
-        device="cpu", seed=0, verbose=0,
-    )
-    model.learn(total_timesteps=warmup)
-    walls, cpus = [], []
-    for _ in range(repeats):
-        start, start_cpu = time.perf_counter(), time.process_time()
-        model.learn(total_timesteps=steps, reset_num_timesteps=False)
-        walls.append(time.perf_counter() - start)
-        cpus.append(time.process_time() - start_cpu)
-    return {"walls": walls, "cpus": cpus, "threads": torch.get_num_threads(),
-            "versions": f"SB3 {stable_baselines3.__version__}, torch {torch.__version__}"}
+    return sb3_learn("DDPG", f"hiddpg/{TASK}-v0", [300, 300], 64, threads, steps, warmup,
+                     repeats)
 
 
 def time_sb3(threads: int | None, steps: int, warmup: int, repeats: int) -> Row | str:
     """SB3 DDPG in a fresh process (torch's threads then compete with no JAX threads);
     ``threads=None`` keeps torch's default. A string says why it was skipped."""
-    if importlib.util.find_spec("stable_baselines3") is None:
-        return "stable_baselines3 is not installed"
-    out = _worker(["sb3", str(threads or 0), str(steps), str(warmup), str(repeats)])
-    if "skip" in out:
-        return out["skip"]
-    label = f"{out['threads']} torch thread{'s' * (out['threads'] > 1)}"
-    label += " (default)" if threads is None else ""
-    return Row(f"SB3 DDPG, {label}", 1, steps, out["walls"], out["cpus"],
-               flops_per_step("sb3").flops, note=out["versions"])
+    args = ["sb3", str(threads or 0), str(steps), str(warmup), str(repeats)]
+    return _time_sb3(__file__, args, "DDPG", threads, steps, flops_per_step("sb3").flops)
 
 
 # -- report --------------------------------------------------------------------------------------
-def load() -> float:
-    return os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-
-
 def machine(loads: tuple[float, float]) -> str:
     device = jax.devices()[0]
     cpu = platform.processor() or platform.machine()
@@ -272,7 +163,7 @@ def markdown(rows: list[Row], base: tuple[Row, Row] | None, skip: str, args: arg
     base_note = (f"the wall ratio divides by the SB3 row with the most steps per second "
                  f"({base[0].name}), the CPU ratio by the one with the most per CPU-second "
                  f"({base[1].name})" if base else "no SB3 baseline")
-    high_on = "step" if _every_step(ours_config("hi-ddpg", 1, 1).agent) else "segment"
+    high_on = "step" if every_step(ours_config("hi-ddpg", 1, 1).agent) else "segment"
     cmd = (f".venv/bin/python benchmarks/throughput.py --algos {' '.join(args.algos)} "
            f"--seeds {' '.join(map(str, args.seeds))} --episodes {args.episodes} "
            f"--repeats {args.repeats} --sb3-steps {args.sb3_steps} --write")
@@ -313,11 +204,7 @@ def markdown(rows: list[Row], base: tuple[Row, Row] | None, skip: str, args: arg
 
 def write_section(text: str, path: Path = DOC) -> None:
     """Replace (or append) the ``## Training throughput`` section (up to the next ``## ``)."""
-    old = path.read_text() if path.exists() else "# Performance\n\n"
-    pattern = re.compile(r"^## Training throughput\n.*?(?=^## |\Z)", re.S | re.M)
-    new = pattern.sub(lambda _: text + "\n", old) if pattern.search(old) else (
-        old.rstrip("\n") + "\n\n" + text)
-    path.write_text(new)
+    _write_section(text, SECTION, path)
 
 
 def main() -> None:
@@ -390,9 +277,8 @@ def main() -> None:
             sb3_rows.append(sb3)
     else:
         skip = "--no-sb3"
-    base = None
-    if sb3_rows:  # the strongest baseline: fastest per wall-clock and per CPU-second
-        base = (max(sb3_rows, key=lambda r: r.rate), max(sb3_rows, key=lambda r: r.cpu_rate))
+    base = strongest(sb3_rows)  # the strongest baseline: per wall-clock and per CPU-second
+    if base:
         for r in rows:
             print(f"  {r.name} x{r.seeds}: {r.rate / base[0].rate:.1f}x SB3 (wall), "
                   f"{r.cpu_rate / base[1].cpu_rate:.1f}x (per CPU-second)")
