@@ -163,7 +163,7 @@ def _prepare(args: argparse.Namespace) -> tuple[Run, Trainer]:
     config = make_config(args.algo, task, preset, sets)
     trainer = make_trainer(config)  # builds env and agent: validates env overrides
     gym = is_gym_task(config.task)
-    path = out / (name or default_name(config.algo, directory_name(task) if gym else task))
+    path = out / (name or default_name(config.algo, directory_name(task) if gym else config.task))
     try:
         run = prepare_new(config, seeds, path)
     except FileExistsError as err:
