@@ -30,18 +30,20 @@ import numpy as np
 from hiddpg.agents import make_agent
 from hiddpg.configs import HIDDPGConfig, TrainConfig
 from hiddpg.host.env import HostEnv, make_host_env
-from hiddpg.host.loop import HostEpisodes, merge, over_seeds, seed_groups, split
+from hiddpg.host.loop import HostEpisodes, merge, one_seed, over_group, seed_groups, split, to_host
 from hiddpg.host.task import gym_task
 from hiddpg.train import RunState, Trainer
 
 
-def _split(state: RunState) -> tuple[RunState, jax.Array]:
-    """The next episode's key, as the JAX engine draws it (``key, episode_key = split(key)``)."""
-    key, episode_key = jax.random.split(state.key)
-    return state.replace(key=key), episode_key
+def _draw(key: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """The run's next key and the next episode's key, as the JAX engine draws them
+    (``key, episode_key = split(key)``)."""
+    key, episode_key = jax.random.split(key)
+    return key, episode_key
 
 
-_split_seeds = jax.jit(over_seeds(_split))
+#: :func:`_draw` compiled for a group of one seed (True) and of several (False)
+_DRAW = {one: jax.jit(over_group(_draw, one)) for one in (True, False)}
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -122,27 +124,30 @@ class HostTrainer:
             raise ValueError(
                 f"a chunk of {n_episodes} episodes is not a multiple of eval_every={every}")
         n_seeds = jax.tree.leaves(state)[0].shape[0]
-        vec, parts = self.vector(n_seeds), split(state, seed_groups(n_seeds))
+        groups = seed_groups(n_seeds)
+        vec, parts = self.vector(n_seeds), split(state, groups)
         train_ms, eval_ms = [], []
         for _ in range(n_episodes // every):
             for _ in range(every):
-                parts, keys = _next_keys(parts)
-                agents, metrics, _ = self.engine.train.run([p.agent for p in parts], keys, vec)
+                parts, keys = _next_keys(parts, groups)
+                agents, metrics, _ = self.engine.train.run([p.agent for p in parts], keys, vec,
+                                                           groups)
                 parts = [RunState(agent=a, key=p.key, episode=p.episode + 1)
                          for a, p in zip(agents, parts, strict=True)]
-                train_ms.append(_episode_row(metrics, parts))
-            parts, keys = _next_keys(parts)
-            _, metrics, _ = self.engine.evaluate.run([p.agent for p in parts], keys, vec)
-            eval_ms.append(_episode_row(metrics, parts))
-        return merge(parts), _stack(train_ms), _stack(eval_ms)
+                train_ms.append(_episode_row(metrics, parts, groups))
+            parts, keys = _next_keys(parts, groups)
+            _, metrics, _ = self.engine.evaluate.run([p.agent for p in parts], keys, vec, groups)
+            eval_ms.append(_episode_row(metrics, parts, groups))
+        return merge(parts, groups), _stack(train_ms), _stack(eval_ms)
 
     def evaluate_seeds(self, state: RunState, keys: jax.Array) -> tuple[dict, dict]:
         """Noise-free evaluation episode per seed from the episode keys ``keys``, with
         trajectories (axes seed, horizon, ...) for plots and GIFs."""
         groups = seed_groups(keys.shape[0])
-        _, metrics, traj = self.engine.evaluate.run(split(state.agent, groups), split(keys, groups),
-                                          self.vector(keys.shape[0]))
-        return jax.device_get((merge(metrics), merge(traj)))
+        _, metrics, traj = self.engine.evaluate.run(split(state.agent, groups),
+                                                    split(keys, groups),
+                                                    self.vector(keys.shape[0]), groups)
+        return jax.device_get((merge(metrics, groups), merge(traj, groups)))
 
 
 def _build_engine(config: TrainConfig, override: Callable[[Any], Any] | None) -> Engine:
@@ -177,17 +182,22 @@ def _engine(config: TrainConfig) -> Engine | None:
     return _ENGINES[key]
 
 
-def _next_keys(parts: list[RunState]) -> tuple[list[RunState], list[jax.Array]]:
-    """Every group's next episode keys, drawn as the JAX engine draws them."""
-    drawn = [_split_seeds(p) for p in parts]
-    return [d[0] for d in drawn], [d[1] for d in drawn]
+def _next_keys(parts: list[RunState], groups: list[slice]
+               ) -> tuple[list[RunState], list[jax.Array]]:
+    """Every group's next episode keys, drawn as the JAX engine draws them (only the keys
+    enter the compiled call: the rest of the state is not copied)."""
+    drawn = [_DRAW[one_seed(g)](p.key) for p, g in zip(parts, groups, strict=True)]
+    return ([p.replace(key=d[0]) for p, d in zip(parts, drawn, strict=True)],
+            [d[1] for d in drawn])
 
 
-def _episode_row(metrics: list[dict], parts: list[RunState]) -> dict[str, np.ndarray]:
+def _episode_row(metrics: list[dict], parts: list[RunState], groups: list[slice]
+                 ) -> dict[str, np.ndarray]:
     """One episode's metrics of every seed, numpy arrays with the seed axis."""
     rows = jax.device_get([dict(m, episode=p.episode)
                            for m, p in zip(metrics, parts, strict=True)])
-    return {k: np.concatenate([np.asarray(r[k]) for r in rows]) for k in rows[0]}
+    return {k: np.concatenate([to_host(r[k], g) for r, g in zip(rows, groups, strict=True)])
+            for k in rows[0]}
 
 
 def _stack(rows: list[dict]) -> dict[str, np.ndarray]:
