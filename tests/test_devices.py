@@ -10,6 +10,7 @@ import pytest
 
 from hiddpg import devices
 from hiddpg.devices import (
+    COLLECTIVE_FLAGS,
     CPU_DEVICES_FLAG,
     DEVICES_ENV,
     SEEDS_ENV,
@@ -23,9 +24,58 @@ def test_request_sets_the_flag_once_and_respects_the_users(monkeypatch):
     monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_enable_fast_math=false")
     monkeypatch.delenv(DEVICES_ENV, raising=False)
     assert request_cpu_devices(3) == 3
-    assert os.environ["XLA_FLAGS"] == f"--xla_cpu_enable_fast_math=false {CPU_DEVICES_FLAG}=3"
+    assert os.environ["XLA_FLAGS"] == " ".join(["--xla_cpu_enable_fast_math=false",
+                                                *COLLECTIVE_FLAGS, f"{CPU_DEVICES_FLAG}=3"])
     assert request_cpu_devices(5) is None  # already set: the first choice stays
     assert os.environ["XLA_FLAGS"].count(CPU_DEVICES_FLAG) == 1
+    assert os.environ["XLA_FLAGS"].count("collective_call_terminate") == 1
+
+
+def test_the_users_collective_timeout_wins(monkeypatch):
+    monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_collective_call_terminate_timeout_seconds=5")
+    request_cpu_devices(2)
+    flags = os.environ["XLA_FLAGS"].split()
+    assert "--xla_cpu_collective_call_terminate_timeout_seconds=5" in flags
+    assert COLLECTIVE_FLAGS[0] not in flags and COLLECTIVE_FLAGS[1] in flags
+
+
+LATE_DEVICE = textwrap.dedent("""
+    import sys, time
+    from hiddpg.devices import request_cpu_devices
+    request_cpu_devices(2)
+    import jax, jax.numpy as jnp
+    from jax import shard_map
+    from jax.sharding import Mesh, PartitionSpec as P
+    def body(x):  # device 0 loops, device 1 goes straight to the gather and waits there
+        n = jnp.where(jax.lax.axis_index("d") == 0, int(sys.argv[1]), 1)
+        m = jnp.full((128, 128), 1e-3)
+        y = jax.lax.fori_loop(0, n, lambda k, y: jnp.tanh(y @ m), x[0])
+        return jax.lax.all_gather(y.sum()[None], "d", tiled=True)
+    f = jax.jit(shard_map(body, mesh=Mesh(jax.devices(), ("d",)), in_specs=P("d"),
+                          out_specs=P("d")))
+    f(jnp.ones((2, 128, 128)))  # compiled, and both devices fast
+    t = time.perf_counter()
+    f(jnp.ones((2, 128, 128))).block_until_ready()
+    print(time.perf_counter() - t)
+""")
+
+
+def test_a_late_device_aborts_xla_at_the_timeout_our_flag_raises():
+    """XLA aborts the process when a device reaches a collective later than the terminate
+    timeout after another (40 s by default): with the timeout at 1 s a late device aborts it;
+    with the flags :func:`request_cpu_devices` adds (which XLA must accept at start) the same
+    late device only makes the gather wait."""
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    ours = subprocess.run([sys.executable, "-c", LATE_DEVICE, "60000"], env=env, timeout=300,
+                          capture_output=True, text=True)
+    assert ours.returncode == 0, ours.stderr[-2000:]
+    late_s = float(ours.stdout.split()[-1])
+    assert late_s > 1.5, f"device 0 was only {late_s:.1f} s late: not late enough to test"
+    env["XLA_FLAGS"] = ("--xla_cpu_collective_call_terminate_timeout_seconds=1 "
+                        "--xla_cpu_collective_call_warn_stuck_timeout_seconds=1")
+    short = subprocess.run([sys.executable, "-c", LATE_DEVICE, "60000"], env=env,
+                           timeout=300, capture_output=True, text=True)
+    assert short.returncode != 0 and "Termination timeout" in short.stderr
 
 
 def test_request_defaults_to_the_env_variable_then_the_cores(monkeypatch):

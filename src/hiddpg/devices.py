@@ -25,6 +25,11 @@ import numpy as np
 CPU_DEVICES_FLAG = "--xla_force_host_platform_device_count"
 #: mesh axis over which seeds are sharded.
 DEVICE_AXIS = "devices"
+#: XLA aborts the whole process when one CPU device reaches a collective (the seeds' gather at
+#: a chunk's end) more than 40 s after another, which happens on a loaded machine; with these
+#: it waits (a day at most) and warns after an hour. Added unless ``XLA_FLAGS`` sets them.
+COLLECTIVE_FLAGS = ("--xla_cpu_collective_call_terminate_timeout_seconds=86400",
+                    "--xla_cpu_collective_call_warn_stuck_timeout_seconds=3600")
 #: environment variable that overrides the number of CPU devices the CLI asks for.
 DEVICES_ENV = "HIDDPG_CPU_DEVICES"
 #: environment variable that overrides how seeds share a device: ``vmap`` or ``map``.
@@ -35,9 +40,12 @@ def request_cpu_devices(n: int | None = None) -> int | None:
     """Ask XLA for ``n`` CPU devices (default: ``$HIDDPG_CPU_DEVICES``, else one per core).
 
     Returns the number requested, or ``None`` when ``XLA_FLAGS`` already sets the count (the
-    user's choice wins). Has no effect once JAX has started its CPU backend.
+    user's choice wins). Also adds :data:`COLLECTIVE_FLAGS` that ``XLA_FLAGS`` does not set.
+    Has no effect once JAX has started its CPU backend.
     """
     flags = os.environ.get("XLA_FLAGS", "")
+    missing = [f for f in COLLECTIVE_FLAGS if f.partition("=")[0] not in flags]
+    flags = os.environ["XLA_FLAGS"] = " ".join([flags, *missing]).strip()
     if CPU_DEVICES_FLAG in flags:
         return None
     if n is None:
