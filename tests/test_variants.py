@@ -92,3 +92,17 @@ def test_paper_plus_is_a_preset_with_the_papers_seeds():
     words = variants.describe("paper+")
     for name in variants.PAPER_PLUS:
         assert variants.CHANGES[name].what in words
+
+
+def test_a_variant_that_adds_nothing_trains_nothing(tmp_path, capsys, monkeypatch):
+    """While PAPER_PLUS is empty, paper+ is paper: reproduce says so and writes nothing."""
+    from hiddpg.commands import reproduce
+
+    monkeypatch.setitem(variants.VARIANTS, "paper+", ())
+    assert variants.same_as("paper+") == "paper" and variants.same_as("paper") is None
+    out = tmp_path / "out"
+    assert reproduce.main(["fig3", "--scale", "paper", "--variant", "paper+",
+                           "--out", str(out)]) == 0
+    assert "adds no change to paper" in capsys.readouterr().out and not out.exists()
+    monkeypatch.setitem(variants.VARIANTS, "paper+", ("tau-0.01",))
+    assert variants.same_as("paper+") is None

@@ -98,6 +98,15 @@ def apply_changes(agent: Any, names: tuple[str, ...] | list[str]) -> Any:
     return agent
 
 
+def same_as(variant: str) -> str | None:
+    """The variant ``variant`` trains exactly, when it adds no change to it (``paper+`` while
+    :data:`PAPER_PLUS` is empty: ``"paper"``); else None. Such a variant has no runs of its
+    own: ``hiddpg reproduce`` trains nothing for it and ``hiddpg claims`` reads the other's."""
+    if variant in VARIANTS and variant != "paper" and not VARIANTS[variant]:
+        return "paper"
+    return None
+
+
 def describe(variant: str) -> str:
     """One line naming what ``variant`` is (figures, reports)."""
     if variant not in VARIANTS:

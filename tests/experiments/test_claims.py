@@ -111,29 +111,34 @@ def outputs(tmp_path_factory):
     quick = Context(root / "quick" / "quick", scale="quick", variant="quick")
     _fig4(quick, {"PuckTrajectory1": (3, 3), "PuckTrajectory2": (3, 1)}, runs=3)
     _fig6(quick, [True, False, False], [False, False, True])
-    dirs = [paper.out, quick.out, root / "paper" / "paper+"]
+    dirs = [paper.out, quick.out, root / "paper" / "extended", root / "paper" / "paper+"]
     return dirs, claims.assess(dirs)
 
 
 def test_verdicts_are_what_the_numbers_give(outputs):
-    _, assessment = outputs
+    dirs, assessment = outputs
     assert assessment.outputs == ["paper (paper scale)", "quick (quick scale)",
-                                  "paper+ (paper scale)"]
-    assert assessment.verdicts() == {
+                                  "extended (paper scale)",
+                                  "paper+ (= paper (paper scale): no change)"]
+    verdicts = assessment.verdicts()
+    for rows in verdicts.values():  # paper+ adds nothing to paper: its column is paper's
+        assert rows.pop("paper+ (= paper (paper scale): no change)") == rows["paper (paper scale)"]
+    assert assessment.paths[3] == str(dirs[0])
+    assert verdicts == {
         1: {"paper (paper scale)": NOT_REPRODUCED, "quick (quick scale)": NOT_RUN,
-            "paper+ (paper scale)": NOT_RUN},  # PT3 3/15; quick: PT3 missing, the rest pass
+            "extended (paper scale)": NOT_RUN},  # PT3 3/15; quick: PT3 missing, the rest pass
         2: {"paper (paper scale)": REPRODUCED, "quick (quick scale)": NOT_REPRODUCED,
-            "paper+ (paper scale)": NOT_RUN},  # 12/15 is the bar; quick PT2 1/3
+            "extended (paper scale)": NOT_RUN},  # 12/15 is the bar; quick PT2 1/3
         3: {"paper (paper scale)": REPRODUCED, "quick (quick scale)": NOT_RUN,
-            "paper+ (paper scale)": NOT_RUN},
+            "extended (paper scale)": NOT_RUN},
         4: {"paper (paper scale)": REPRODUCED, "quick (quick scale)": NOT_REPRODUCED,
-            "paper+ (paper scale)": NOT_RUN},
+            "extended (paper scale)": NOT_RUN},
         5: {"paper (paper scale)": REPRODUCED, "quick (quick scale)": NOT_RUN,
-            "paper+ (paper scale)": NOT_RUN},
+            "extended (paper scale)": NOT_RUN},
         6: {"paper (paper scale)": REPRODUCED, "quick (quick scale)": NOT_RUN,
-            "paper+ (paper scale)": NOT_RUN},
+            "extended (paper scale)": NOT_RUN},
         7: {"paper (paper scale)": NOT_REPRODUCED, "quick (quick scale)": NOT_RUN,
-            "paper+ (paper scale)": NOT_RUN},  # the arm: HI-DDPG = HI-DDPG-wo-model
+            "extended (paper scale)": NOT_RUN},  # the arm: HI-DDPG = HI-DDPG-wo-model
     }
 
 
@@ -158,7 +163,7 @@ def test_cells_carry_the_counts_intervals_and_seeds(outputs):
     assert paper[7].numbers["ArmObstacle"]["hi_beats_wo_model"] == 0
     assert paper[6].seeds == list(range(15)) and "episodes 24-40" in paper[6].text
     for rows in assessment.outcomes.values():
-        assert rows[2].cell() == "not run yet"
+        assert rows[2].cell() == "not run yet" and rows[3] == rows[0]
         assert all(len(r.cell()) < 250 for r in rows), [r.cell() for r in rows]
 
 
@@ -179,9 +184,9 @@ def test_markdown_has_a_row_per_claim_and_a_column_per_output(outputs):
     _, assessment = outputs
     table = claims.markdown(assessment).splitlines()
     assert table[0] == ("| claim | paper (paper scale) | quick (quick scale) | "
-                        "paper+ (paper scale) |")
+                        "extended (paper scale) | paper+ (= paper (paper scale): no change) |")
     assert len(table) == 2 + len(claims.CLAIMS)
-    assert all(line.count("|") == 5 for line in table)
+    assert all(line.count("|") == 6 for line in table)
     definitions = claims.definitions_markdown().splitlines()
     assert len(definitions) == 2 + len(claims.CLAIMS)
     assert all(len(cell) < 250 for line in definitions for cell in line.split("|"))
@@ -195,7 +200,8 @@ def test_the_claims_command_prints_writes_and_exports(outputs, tmp_path, capsys)
     assert printed.out.strip() == out.read_text().strip()
     assert claims.markdown(assessment) in printed.out
     assert claims.definitions_markdown() in printed.out
-    assert "paper+ does not exist" in printed.err
+    assert "extended does not exist" in printed.err
+    assert "paper+ adds no change to paper: read from" in printed.err
     assert report_cmd.claims([str(dirs[0]), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert [c["outcomes"]["paper (paper scale)"]["verdict"] for c in data["claims"]] == [

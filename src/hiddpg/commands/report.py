@@ -121,12 +121,19 @@ def claims(argv: Sequence[str] | None = None) -> int:
 
 def _assess(args: argparse.Namespace):
     from hiddpg.experiments.claims import assess
+    from hiddpg.variants import same_as
 
-    for d in args.dirs:
-        if not Path(d).is_dir():
-            print(f"{CLAIMS_PROG}: {d} does not exist: every claim is not run yet there",
+    assessment = assess(args.dirs)
+    missing = set()
+    for d, read in zip(args.dirs, assessment.paths, strict=True):
+        if not Path(read).is_dir() and read not in missing:
+            missing.add(read)
+            print(f"{CLAIMS_PROG}: {read} does not exist: every claim is not run yet there",
                   file=sys.stderr)
-    return assess(args.dirs)
+        if Path(read) != Path(d):
+            print(f"{CLAIMS_PROG}: {d}: variant {Path(d).name} adds no change to "
+                  f"{same_as(Path(d).name)}: read from {read}", file=sys.stderr)
+    return assessment
 
 
 def _print_claims(args: argparse.Namespace, assessment) -> int:

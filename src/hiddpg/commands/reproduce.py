@@ -105,7 +105,14 @@ def _reproduce(args: argparse.Namespace, ctx: Context) -> int:
     from hiddpg.experiments.redraw import write_context
     from hiddpg.experiments.report import write_report
     from hiddpg.experiments.schedule import CHEAP_FIRST, plan, plan_table
+    from hiddpg.variants import same_as
 
+    alias = same_as(ctx.variant)
+    if alias is not None:
+        print(f"{PROG}: variant {ctx.variant} adds no change to {alias} "
+              f"(hiddpg.variants.PAPER_PLUS is empty, docs/diagnosis.md): its runs, figures "
+              f"and numbers are {alias}'s; nothing to train here, run --variant {alias}")
+        return 0
     figures = CHEAP_FIRST if args.figure == "all" else (args.figure,)
     if args.dry_run:
         print(f"{PROG}: {ctx.note()}, into {ctx.out}; nothing is trained (--dry-run)")

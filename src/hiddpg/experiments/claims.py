@@ -18,6 +18,7 @@ from typing import Any
 
 from hiddpg.experiments.claim_checks import CHECKS, RMS_LIMIT, Outcome, Output
 from hiddpg.experiments.trajectory import GOAL_RADIUS
+from hiddpg.variants import same_as
 
 DEFAULT_DIRS = ("results/paper/paper", "results/paper/paper+", "results/paper/extended",
                 "results/quick/quick")
@@ -113,12 +114,22 @@ class Assessment:
 
 
 def assess(dirs: Sequence[str | Path]) -> Assessment:
-    """Check every claim on each output directory (one that does not exist: "not run")."""
-    outputs = [Output(d) for d in dirs]
-    labels = [o.label for o in outputs]
+    """Check every claim on each output directory (one that does not exist: "not run"). A
+    missing ``results/<scale>/<variant>`` of a variant that adds nothing to another
+    (:func:`hiddpg.variants.same_as`) is read from the other's directory, labelled so."""
+    outputs, labels = [], []
+    for d in dirs:
+        path, alias = Path(d), same_as(Path(d).name)
+        if alias is not None and not path.is_dir():
+            out = Output(path.parent / alias)
+            outputs.append(out)
+            labels.append(f"{path.name} (= {out.label}: no change)")
+        else:
+            outputs.append(Output(path))
+            labels.append(outputs[-1].label)
     labels = [f"{label}, {o.path}" if labels.count(label) > 1 else label
               for label, o in zip(labels, outputs, strict=True)]
-    return Assessment(labels, [str(d) for d in dirs],
+    return Assessment(labels, [str(o.path) for o in outputs],
                       {c.number: [CHECKS[c.number](o) for o in outputs] for c in CLAIMS})
 
 
