@@ -33,3 +33,18 @@ def test_every_change_of_paper_plus_is_a_measured_candidate():
     text = DOC.read_text()
     for name in PAPER_PLUS:
         assert name in CHANGES and f"`{name}`" in text
+
+
+FLOORS = [("PuckTrajectory2", "rest"), ("PuckTrajectory2", "random"),
+          ("ArmObstacle", "rest"), ("ArmObstacle", "random")]
+
+
+@pytest.mark.parametrize("task,policy", FLOORS)
+def test_the_floors_quoted_are_what_the_policies_score(task, policy):
+    """The reference points "zero action" and "random policy" (1000 episodes each)."""
+    from hiddpg.experiments.floors import floor_returns
+    from hiddpg.experiments.report import fmt
+
+    mean, _ = floor_returns(task, policy)
+    quoted = f"`floor_returns(\"{task}\", \"{policy}\")` {fmt(mean)}"
+    assert quoted in DOC.read_text(), f"docs/diagnosis.md should quote {quoted}"
