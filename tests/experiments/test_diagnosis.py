@@ -100,3 +100,11 @@ def test_a_run_without_a_finished_chunk_is_skipped_with_a_note(tmp_path, capsys)
     rows = diagnosis.summarize([str(tmp_path)])
     assert [r["episodes"] for r in rows] == [40]
     assert "skipped:" in capsys.readouterr().err
+
+
+def test_the_command_names_a_bad_input_in_one_line(tmp_path, capsys):
+    assert diagnosis.main([str(tmp_path / "nope")]) == 2
+    assert diagnosis.main([str(tmp_path), "--line", "zero=abc"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 2 and "nope is neither a run directory" in err[0]
+    assert "--line 'zero=abc': expected LABEL=NUMBER" in err[1]

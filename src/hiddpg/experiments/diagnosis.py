@@ -208,7 +208,17 @@ def plot_curves(paths: list[str] | tuple[str, ...], out: Path, at: int | None = 
     return out
 
 
-def main(argv: list[str] | None = None) -> None:
+def main(argv: list[str] | None = None) -> int:
+    """The command line; a bad directory, record or ``--line`` is one line on stderr, exit 2."""
+    try:
+        _main(argv)
+    except (ExperimentError, ValueError, OSError) as err:
+        print(f"python -m hiddpg.experiments.diagnosis: {err}", file=sys.stderr)
+        return 2
+    return 0
+
+
+def _main(argv: list[str] | None) -> None:
     p = argparse.ArgumentParser(prog="python -m hiddpg.experiments.diagnosis",
                                 description="A one-change-at-a-time study as a table.")
     p.add_argument("dirs", nargs="+", help="sweep or run directories, or one exported .json")
@@ -221,6 +231,13 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--line", action="append", default=[], metavar="LABEL=VALUE",
                    help="a horizontal reference line on the plot (repeatable)")
     args = p.parse_args(argv)
+    lines = {}
+    for item in args.line:
+        label, _, value = item.rpartition("=")
+        try:
+            lines[label] = float(value)
+        except ValueError:
+            raise ValueError(f"--line {item!r}: expected LABEL=NUMBER") from None
     source = args.dirs
     if args.export:
         study = collect(args.dirs, args.window, args.at)
@@ -230,9 +247,8 @@ def main(argv: list[str] | None = None) -> None:
         source = [str(args.export)]
     print(markdown(summarize(source, args.window, args.at)))
     if args.plot:
-        lines = {k: float(v) for k, _, v in (s.rpartition("=") for s in args.line)}
         print(f"wrote {plot_curves(source, args.plot, args.at, args.title, lines)}")
 
 
 if __name__ == "__main__":  # pragma: no cover
-    main()
+    sys.exit(main())
