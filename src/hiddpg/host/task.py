@@ -173,10 +173,15 @@ def is_gym_task(task: Any) -> bool:
 
 
 def gym_task(task: str) -> GymTask:
-    """The declaration of ``gym:<name>``: the registered one, else ``GymTask(env=<name>)``."""
+    """The declaration of ``gym:<name>``: the registered one, else the shipped one
+    (:mod:`hiddpg.host.catalog`), else ``GymTask(env=<name>)``."""
     if not is_gym_task(task) or len(task) == len(PREFIX):
         raise ValueError(f"task {task!r} is not a host-engine task; name one as "
                          f"'{PREFIX}<Gymnasium id>' (e.g. '{PREFIX}Pendulum-v1') or register "
                          "it with hiddpg.host.register_gym_task")
     name = task[len(PREFIX):]
-    return GYM_TASKS.get(name) or GymTask(env=name)
+    if name in GYM_TASKS:
+        return GYM_TASKS[name]
+    from hiddpg.host.catalog import catalogued  # the shipped declarations (imports no env)
+
+    return catalogued(name) or GymTask(env=name)

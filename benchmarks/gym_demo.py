@@ -1,0 +1,336 @@
+"""HI-DDPG, DDPG and h-DDPG against Stable-Baselines3's DDPG and TD3 on a Gymnasium task, with
+numbers: learning curves over seeds, a table and a GIF (run by hand; hours at full budget).
+
+    .venv/bin/python benchmarks/gym_demo.py --env Reacher-v5
+    .venv-myo/bin/python benchmarks/gym_demo.py --env myoElbowPose1D6MRandom-v0
+    .venv/bin/python benchmarks/gym_demo.py --env Reacher-v5 --estimate-only
+    .venv/bin/python benchmarks/gym_demo.py --env Reacher-v5 --tiny --episodes 8 \\
+        --eval-every 4 --eval-episodes 2 --seeds 0-1 --out /tmp/demo   # a smoke run
+
+MyoSuite needs its own virtualenv (scripts/myosuite_venv.sh). The goals and skills are the
+shipped ones (:mod:`hiddpg.host.catalog`). Every method trains for the same number of
+environment steps per seed (``--episodes`` x the horizon: neither task ends an episode early)
+and is evaluated the same way: before training and after every ``--eval-every`` episodes'
+steps, ``--eval-episodes`` noise-free episodes from the same Gymnasium reset seeds for every
+method and seed (those of the episode keys ``PRNGKey(10000 + i)``, as our host loop draws
+them). Ours: ``--preset paper`` (the presets' generic values for a Gymnasium task), the seeds
+trained together in one run directory (``OUT/runs/METHOD``, resumed from its checkpoint).
+SB3: ``DDPG`` and ``TD3`` with our networks (``--hidden``), batch (64), replay (100,000),
+random steps before learning (DDPG's ``learning_starts``), discount (0.99) and Gaussian action
+noise of 0.1 of the half range (our OU noise's scale); their own learning rates (1e-3) and
+tau (0.005); one seed after another, each seed's record written when it finishes.
+
+Written under ``OUT`` (default ``results/gym-demo/ENV``): ``records/METHOD.json`` (the
+evaluation curve of every seed, the config and the versions), ``rates.json`` (the measured
+steps per second), ``curves.png`` (mean +- std over seeds), ``table.md`` (final return per
+method, mean +- std over seeds, and the Welch 95% interval of each method's difference to SB3
+TD3) and ``hi-ddpg.gif`` (``hiddpg eval --gif`` of our HI-DDPG run, ``MUJOCO_GL=egl``).
+Rerunning skips what is done.
+
+Budgets: Reacher-v5 2,000 episodes of 50 steps (100,000 steps per seed), evaluated every
+5,000 steps; the elbow 1,000 episodes of 100 steps (100,000). The paper preset's own budget
+for a Gymnasium task, 3,000 episodes (150,000 Reacher steps), would take half as long again;
+100,000 steps x 5 seeds x 5 methods is what fits a few hours on two cores at the rates
+``--estimate-only`` measures (steps per CPU-second, cached in ``rates.json``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.metadata
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco
+from hiddpg.devices import request_cpu_devices  # noqa: E402
+
+request_cpu_devices()  # as the hiddpg command does
+
+import jax  # noqa: E402
+import numpy as np  # noqa: E402
+
+from hiddpg.host.catalog import ELBOW_ENV, ELBOW_ID  # noqa: E402
+
+ENVS = {"Reacher-v5": ("Reacher-v5", 2000, 100), ELBOW_ID: (ELBOW_ENV, 1000, 50)}
+OURS, SB3 = ("ddpg", "hi-ddpg", "h-ddpg"), ("sb3-ddpg", "sb3-td3")
+EVAL_KEY, BATCH, BUFFER, BASELINE = 10_000, 64, 100_000, "sb3-td3"
+
+
+def versions() -> dict:
+    out = {"python": sys.version.split()[0]}
+    for p in ("hiddpg", "jax", "gymnasium", "mujoco", "myosuite", "stable-baselines3", "torch"):
+        try:
+            out[p] = importlib.metadata.version(p)
+        except importlib.metadata.PackageNotFoundError:
+            pass
+    return out
+
+
+def eval_seeds(n: int) -> tuple[list, list[int]]:
+    """The evaluation episodes' keys and their Gymnasium reset seeds."""
+    from hiddpg.host.gif import reset_seed
+
+    keys = [jax.random.PRNGKey(EVAL_KEY + i) for i in range(n)]
+    return keys, [reset_seed(k) for k in keys]
+
+
+def write(path: Path, data: dict) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(data, indent=1) + "\n")
+    tmp.replace(path)
+
+
+def read(path: Path) -> dict | None:
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def our_sets(algo: str, a: argparse.Namespace) -> list[str]:
+    h = "[" + ",".join(map(str, a.hidden)) + "]"
+    levels = {"ddpg": [""], "hi-ddpg": ["high.", "low."], "h-ddpg": ["skill.", "meta."]}[algo]
+    sets = [f"episodes={a.episodes}", f"eval_every={a.eval_every}",
+            f"chunk_episodes={a.eval_every}", *(f"agent.{lv}hidden={h}" for lv in levels)]
+    if a.tiny:
+        sets += [f"agent.{lv}batch_size=16" for lv in levels]
+        sets += {"ddpg": ["agent.learning_starts=50"], "h-ddpg": ["agent.skill.learning_starts=50"],
+                 "hi-ddpg": ["agent.learning_starts=50", "agent.high_learning_starts=4",
+                             "agent.high.batch_size=4"]}[algo]
+    return sets + list(a.set)
+
+
+def sb3_params(a: argparse.Namespace, task: str) -> dict:
+    from hiddpg.presets import make_config
+
+    starts = make_config("ddpg", task, "paper", our_sets("ddpg", a)).agent.learning_starts
+    return {"buffer_size": BUFFER, "batch_size": 16 if a.tiny else BATCH, "gamma": 0.99,
+            "learning_starts": starts, "train_freq": 1, "gradient_steps": 1, "noise": 0.1,
+            "net_arch": list(a.hidden)}
+
+
+# -- ours ------------------------------------------------------------------------------------
+def run_ours(algo: str, a: argparse.Namespace, out: Path, horizon: int) -> None:
+    from hiddpg.presets import make_config
+    from hiddpg.reporter import ConsoleReporter
+    from hiddpg.runner import open_for_resume, prepare_new, train_run
+    from hiddpg.runs import make_trainer
+
+    rec_path, path = out / "records" / f"{algo}.json", out / "runs" / algo
+    config = make_config(algo, "gym:" + ENVS[a.env][0], "paper", our_sets(algo, a))
+    if path.is_dir():
+        run, trainer, done = open_for_resume(path, a.episodes)  # may extend the budget
+    else:
+        run, trainer, done = prepare_new(config, a.seeds, path), make_trainer(config), 0
+    rec = read(rec_path) or {"method": algo, "env": a.env, "seeds": a.seeds, "evals": []}
+    rec.update(run=str(path), config=json.loads((path / "config.json").read_text()),
+               versions=versions(), eval_reset_seeds=eval_seeds(a.eval_episodes)[1])
+    rec["evals"] = [e for e in rec["evals"] if e["steps"] <= done * horizon]
+    keys = eval_seeds(a.eval_episodes)[0]
+
+    def evaluate(state, episodes: int) -> None:
+        rows = []
+        for key in keys:  # every seed's environment resets from the same seed
+            metrics, _ = trainer.evaluate_seeds(state, jax.numpy.stack([key] * len(a.seeds)))
+            rows.append(np.asarray(metrics["env_return"], float))
+        rec["evals"].append({"steps": episodes * horizon,
+                             "returns": np.stack(rows, 1).tolist()})  # (seed, episode)
+        write(rec_path, rec)
+
+    if not rec["evals"] or rec["evals"][-1]["steps"] < done * horizon:
+        evaluate(run.load_checkpoint(trainer)[0], done)  # before training, or a lost one
+    if done < config.episodes:
+        result = train_run(run, trainer, reporter=ConsoleReporter(),
+                           on_chunk=lambda r, n: evaluate(r.load_checkpoint(trainer)[0], n))
+        if result.status != "finished":
+            raise SystemExit(f"{algo}: {result.status} {result.error or ''}")
+    else:
+        run.close()
+
+
+# -- Stable-Baselines3 -------------------------------------------------------------------------
+def run_sb3(method: str, a: argparse.Namespace, out: Path, horizon: int) -> None:
+    import gymnasium as gym
+    import stable_baselines3 as sb3
+    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.noise import NormalActionNoise
+
+    p, env_id = sb3_params(a, "gym:" + ENVS[a.env][0]), ENVS[a.env][0]
+    reset_seeds, every = eval_seeds(a.eval_episodes)[1], a.eval_every * horizon
+    evaluator = gym.make(env_id)
+
+    def evaluate(model) -> list[float]:
+        returns = []
+        for s in reset_seeds:
+            obs, _ = evaluator.reset(seed=s)
+            total, done = 0.0, False
+            while not done:
+                action, _ = model.predict(obs, deterministic=True)
+                obs, reward, term, trunc, _ = evaluator.step(action)
+                total, done = total + float(reward), term or trunc
+            returns.append(total)
+        return returns
+
+    class Every(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.num_timesteps % every == 0:
+                evals.append({"steps": self.num_timesteps, "returns": evaluate(self.model)})
+            return True
+
+    for seed in a.seeds:
+        path = out / "records" / method / f"seed{seed}.json"
+        if path.is_file():
+            continue
+        env = gym.make(env_id)
+        n = env.action_space.shape[0]
+        half = (env.action_space.high - env.action_space.low) / 2
+        model = getattr(sb3, method[4:].upper())(
+            "MlpPolicy", env, buffer_size=p["buffer_size"], batch_size=p["batch_size"],
+            gamma=p["gamma"], learning_starts=p["learning_starts"], train_freq=1,
+            gradient_steps=1, action_noise=NormalActionNoise(np.zeros(n), p["noise"] * half),
+            policy_kwargs={"net_arch": p["net_arch"]}, device="cpu", seed=seed, verbose=0)
+        evals = [{"steps": 0, "returns": evaluate(model)}]
+        start = time.perf_counter()
+        model.learn(total_timesteps=a.episodes * horizon, callback=Every())
+        write(path, {"method": method, "env": a.env, "seed": seed, "evals": evals, "params": p,
+                     "wall_s": time.perf_counter() - start, "versions": versions(),
+                     "eval_reset_seeds": reset_seeds})
+        print(f"{method} seed {seed}: {evals[-1]['returns']}", flush=True)
+
+
+# -- rates, summary ----------------------------------------------------------------------------
+def probe(method: str, a: argparse.Namespace, horizon: int) -> float:
+    """Steps per CPU-second (this process, all threads) of ``method`` while learning (all
+    seeds), after compilation: unlike wall-clock rates, meaningful on a shared machine."""
+    n, task = 2 if a.tiny else 4, "gym:" + ENVS[a.env][0]
+    if method in SB3:
+        import gymnasium as gym
+        import stable_baselines3 as sb3
+
+        p = sb3_params(a, task)
+        model = getattr(sb3, method[4:].upper())(
+            "MlpPolicy", gym.make(ENVS[a.env][0]), batch_size=p["batch_size"],
+            learning_starts=0, policy_kwargs={"net_arch": p["net_arch"]}, device="cpu")
+        model.learn(2 * horizon)
+        start = time.process_time()
+        model.learn(n * horizon, reset_num_timesteps=False)
+        return n * horizon / (time.process_time() - start)
+    from hiddpg.host import HostTrainer
+    from hiddpg.presets import make_config
+    from hiddpg.train import seed_keys
+
+    starts = {"ddpg": ["agent.learning_starts=0"], "h-ddpg": ["agent.skill.learning_starts=0"],
+              "hi-ddpg": ["agent.learning_starts=0", "agent.high_learning_starts=0",
+                          "agent.pretrain_episodes=0"]}[method]
+    sets = [*our_sets(method, a), "eval_every=1", "chunk_episodes=1", *starts]
+    trainer = HostTrainer(make_config(method, task, "paper", sets))
+    state = trainer.init_seeds(seed_keys(a.seeds))
+    state = trainer.run_chunk_seeds(state, 1)[0]  # compiles
+    start = time.process_time()
+    for _ in range(n // 2):
+        state = jax.block_until_ready(trainer.run_chunk_seeds(state, 1)[0])
+    trainer.close()
+    return (n // 2) * horizon * len(a.seeds) / (time.process_time() - start)
+
+
+def curves(out: Path, methods: list[str]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per method: the evaluation steps and the (seed, evaluation) mean returns."""
+    found = {}
+    for m in methods:
+        if m in OURS and (rec := read(out / "records" / f"{m}.json")):
+            steps = [e["steps"] for e in rec["evals"]]
+            values = np.array([np.mean(e["returns"], axis=1) for e in rec["evals"]]).T
+        elif m in SB3 and (files := sorted((out / "records" / m).glob("seed*.json"))):
+            recs = [read(f) for f in files]
+            steps = [e["steps"] for e in recs[0]["evals"]]
+            values = np.array([[np.mean(e["returns"]) for e in r["evals"]] for r in recs])
+        else:
+            continue
+        found[m] = (np.asarray(steps), values)
+    return found
+
+
+def summarize(out: Path, methods: list[str], title: str) -> None:
+    from hiddpg.experiments.diagnosis import welch_interval
+    from hiddpg.experiments.report import pyplot
+
+    found = curves(out, methods)
+    if not found:
+        return
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4))
+    lines = ["| method | seeds | env steps | final return (mean ± std) | vs SB3 TD3: "
+             "difference [Welch 95%] |", "|---|---|---|---|---|"]
+    base = found.get(BASELINE, (None, None))[1]
+    for m, (steps, values) in found.items():
+        mean, std = values.mean(0), values.std(0, ddof=1) if len(values) > 1 else 0 * values[0]
+        (line,) = ax.plot(steps, mean, label=f"{m} ({len(values)} seeds)")
+        ax.fill_between(steps, mean - std, mean + std, color=line.get_color(), alpha=0.15)
+        final, vs = values[:, -1], ""
+        if base is not None and m != BASELINE and len(final) > 1 and len(base) > 1:
+            d, lo, hi = welch_interval(final, base[:, -1])
+            vs = f"{d:+.3g} [{lo:+.3g}, {hi:+.3g}]"
+        lines.append(f"| {m} | {len(final)} | {steps[-1]} | {final.mean():.3g} ± "
+                     f"{final.std(ddof=1) if len(final) > 1 else 0:.2g} | {vs} |")
+    ax.set(xlabel="environment steps per seed", ylabel="evaluation return", title=title)
+    ax.legend(fontsize=8)
+    fig.savefig(out / "curves.png", dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    (out / "table.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines) + f"\nwrote {out / 'curves.png'}, {out / 'table.md'}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    from hiddpg.runner import parse_seeds
+
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--env", choices=list(ENVS), default="Reacher-v5")
+    p.add_argument("--out", type=Path, default=None)
+    p.add_argument("--seeds", type=parse_seeds, default=parse_seeds("0-4"))
+    p.add_argument("--methods", nargs="+", choices=[*OURS, *SB3], default=[*OURS, *SB3])
+    p.add_argument("--episodes", type=int, default=None, help="per seed (default: see above)")
+    p.add_argument("--eval-every", type=int, default=None, help="episodes between evaluations")
+    p.add_argument("--eval-episodes", type=int, default=10)
+    p.add_argument("--hidden", type=int, nargs="+", default=[300, 300])
+    p.add_argument("--set", action="append", default=[], help="KEY=VALUE for our runs")
+    p.add_argument("--tiny", action="store_true", help="16-16 networks, batch 16, short "
+                   "random phase: smoke tests only")
+    p.add_argument("--estimate-only", action="store_true")
+    p.add_argument("--no-gif", action="store_true")
+    a = p.parse_args(argv)
+    env_id, episodes, every = ENVS[a.env]
+    a.episodes, a.eval_every = a.episodes or episodes, a.eval_every or every
+    if a.tiny:
+        a.hidden = [16, 16] if a.hidden == [300, 300] else a.hidden
+    out = a.out or Path("results/gym-demo") / a.env
+    from hiddpg.host import make_host_env
+
+    horizon = make_host_env("gym:" + env_id).horizon
+    steps = a.episodes * horizon
+    rates = read(out / "rates.json") or {}
+    for m in a.methods:
+        if m not in rates:
+            rates[m] = probe(m, a, horizon)
+            write(out / "rates.json", rates)
+    total = sum(steps * len(a.seeds) / rates[m] for m in a.methods)
+    print(f"{a.env}: {steps} steps per seed x {len(a.seeds)} seeds; steps per CPU-second "
+          + ", ".join(f"{m} {rates[m]:.0f}" for m in a.methods) + f"; expected "
+          f"{total / 3600:.1f} CPU-hours (+ evaluations, less what is done): the wall time "
+          "on an otherwise idle machine, or less where a method keeps two cores busy; more "
+          "under load", flush=True)
+    if a.estimate_only:
+        return 0
+    for m in a.methods:
+        (run_ours if m in OURS else run_sb3)(m, a, out, horizon)
+    summarize(out, [*OURS, *SB3], f"{a.env}: evaluation return, mean ± std over seeds")
+    gif = out / "hi-ddpg.gif"
+    if "hi-ddpg" in a.methods and not a.no_gif and not gif.is_file():
+        from hiddpg import cli
+
+        cli.main(["eval", str(out / "runs" / "hi-ddpg"), "--gif", str(gif)])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
