@@ -30,8 +30,9 @@ Rerunning skips what is done.
 Budgets: Reacher-v5 2,000 episodes of 50 steps (100,000 steps per seed), evaluated every
 5,000 steps; the elbow 1,000 episodes of 100 steps (100,000). The paper preset's own budget
 for a Gymnasium task, 3,000 episodes (150,000 Reacher steps), would take half as long again;
-100,000 steps x 5 seeds x 5 methods is what fits a few hours on two cores at the rates
-``--estimate-only`` measures (steps per CPU-second, cached in ``rates.json``).
+100,000 steps x 5 seeds x 5 methods is the smallest budget worth a curve, and already many
+hours on two cores: ``--estimate-only`` prints them from measured rates (steps per CPU-second,
+cached in ``rates.json``); ``--episodes`` halves it for a quicker look.
 """
 
 from __future__ import annotations
