@@ -108,3 +108,13 @@ def test_the_command_names_a_bad_input_in_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 2 and "nope is neither a run directory" in err[0]
     assert "--line 'zero=abc': expected LABEL=NUMBER" in err[1]
+
+
+def test_a_run_is_labelled_by_its_preset_unless_paper_then_its_changes(tmp_path):
+    runs = {"a": {"preset": "paper", "sets": ["episodes=5"]},
+            "b": {"preset": "paper", "sets": ["episodes=5", "agent.high.tau=0.01"]},
+            "c": {"preset": "quick", "sets": ["episodes=5"]},
+            "d": {"preset": "quick", "sets": ["agent.choice=actor"]}}
+    (tmp_path / "sweep.json").write_text(json.dumps({"runs": runs}))
+    labels = [diagnosis.changes(tmp_path / name) for name in ("a", "b", "c", "d", "e")]
+    assert labels == ["paper", "agent.high.tau=0.01", "quick", "quick, agent.choice=actor", "e"]

@@ -45,14 +45,15 @@ EVAL_COLUMNS = ("eval_env_return", "eval_switches")
 
 def changes(path: Path) -> str:
     """The run's changes as the sweep that made it lists them (``sweep.json`` next to it;
-    its budget ``episodes=N`` left out); ``paper`` for none, the run's name outside a
-    sweep."""
+    its budget ``episodes=N`` left out), led by its preset unless that is ``paper``;
+    ``paper`` for none, the run's name outside a sweep."""
     manifest = path.parent / "sweep.json"
     if manifest.is_file():
         entry = json.loads(manifest.read_text()).get("runs", {}).get(path.name)
         if entry is not None:
             sets = [s for s in entry.get("sets", []) if not s.startswith("episodes=")]
-            return ", ".join(sets) or entry.get("preset", "")
+            preset = entry.get("preset", "")
+            return ", ".join(([preset] if preset != "paper" or not sets else []) + sets)
     return path.name
 
 
