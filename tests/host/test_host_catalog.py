@@ -25,7 +25,7 @@ from hiddpg.host.catalog import (
     elbow_skills,
     reacher_skills,
 )
-from hiddpg.host.declare import declarations_scope, declare
+from hiddpg.host.declare import declarations_scope, declare, value_sources
 from hiddpg.host.task import GymTask, restore_gym_task
 
 
@@ -86,6 +86,16 @@ def test_reacher_goal_and_skills_fit_the_environment():
     assert env.obs_dim == 10 and max(env.goal_space.indices) < env.obs_dim
     assert env.goal_space.indices == (8, 9) and env.horizon == 50
     assert env.declared_skills(HDDPGConfig()).n_skills == 4
+    config = types.SimpleNamespace(task="gym:Reacher-v5", preset="quick")
+    shipped = value_sources(config, env)
+    assert shipped["goal"]["from"] == shipped["skills_from"] == \
+        "hiddpg.host.catalog (shipped with hiddpg)"
+    assert shipped["goal"]["entries"] == {"8": list(REACHER_GOAL[8]), "9": list(REACHER_GOAL[9])}
+    with declarations_scope():
+        declare("Reacher-v5", ["8:-0.3:0.3", "9:-0.3:0.3"])
+        given = value_sources(config, make_host_env("gym:Reacher-v5"))
+    assert given["goal"]["from"] == "--goal / register_gym_task"
+    assert given["skills_from"] == shipped["skills_from"]  # --skills not given: still shipped
 
 
 @pytest.mark.skipif(importlib.util.find_spec("myosuite") is None,

@@ -167,10 +167,23 @@ def directory_name(task: str) -> str:
 def value_sources(config: Any, env: Any) -> dict[str, Any]:
     """Where a host run's values come from: the preset's generic values, what the
     environment says of itself, and what was declared (``config.json``'s ``sources``)."""
+    from hiddpg.host.catalog import catalogued  # the shipped declarations
+
     declared = gym_task(config.task)
+    shipped = catalogued(config.task[len(PREFIX):])
     goal = env.goal_space
-    goal_from = ("--goal / register_gym_task" if declared.goal is not None
-                 else "the environment" if goal is not None else None)
+
+    def origin(part: str, own: str) -> str | None:
+        value = getattr(declared, part)
+        if value is None:
+            return own if getattr(env, "goal_space" if part == "goal" else part) is not None \
+                else None
+        if shipped is not None and value == getattr(shipped, part):
+            return "hiddpg.host.catalog (shipped with hiddpg)"
+        return f"--{part} / register_gym_task"
+
+    goal_from = origin("goal", "the environment")
+    skills_from = origin("skills", "the environment")
     return {
         "preset": f"{config.preset}: its generic values (networks, learning rates, noise, "
                   "buffers, gamma, tau, budget), as for a task of no family; nothing of the "
@@ -183,6 +196,7 @@ def value_sources(config: Any, env: Any) -> dict[str, Any]:
             "entries": {str(i): [lo, hi] for i, lo, hi in zip(goal.indices, goal.low,
                                                               goal.high, strict=True)}},
         "skills": None if env.skills is None else str(env.skills),
+        "skills_from": skills_from,
     }
 
 
@@ -198,4 +212,6 @@ def sources_line(sources: dict[str, Any]) -> str:
         text += f"; goal {entries} (from {goal['from']})"
     if sources["skills"] is not None:
         text += f"; skills {sources['skills']}"
+        if sources.get("skills_from"):
+            text += f" (from {sources['skills_from']})"
     return text
