@@ -60,6 +60,12 @@ def test_rows_hold_the_last_evaluation_and_the_last_window(tmp_path):
     diff, low, high = b["vs_paper"]
     half = 4.302652729911275 * np.sqrt(0.25 + 0.25)
     assert (diff, low, high) == pytest.approx((-100.0, -100.0 - half, -100.0 + half))
+    # another run as the base: the paper run is compared with b, the other way round
+    a2, b2 = diagnosis.summarize([str(tmp_path)], window=10, base=b["run"])
+    assert "vs_base" not in b2 and "vs_paper" not in a2
+    assert a2["vs_base"] == pytest.approx((100.0, 100.0 - half, 100.0 + half))
+    assert diagnosis.markdown([a2, b2]).splitlines()[0].startswith(
+        "| run | episodes | seeds | score | vs_base | eval_env_return")
 
 
 def test_cut_compares_runs_at_the_same_budget_and_the_curves_are_drawn(tmp_path):
@@ -82,14 +88,21 @@ def test_an_exported_study_gives_the_same_table_without_the_runs(tmp_path):
     (tmp_path / "runs" / "sweep.json").write_text(json.dumps({"runs": {
         "a": {"preset": "paper", "sets": ["episodes=40"]},
         "b": {"preset": "paper", "sets": ["episodes=40", "agent.high.tau=0.01"]}}}))
-    export = tmp_path / "study.json"
+    export, against_b = tmp_path / "study.json", tmp_path / "against-b.json"
     diagnosis.main([str(tmp_path / "runs"), "--window", "10", "--export", str(export)])
+    b = "agent.high.tau=0.01"
+    diagnosis.main([str(tmp_path / "runs"), "--window", "10", "--export", str(against_b),
+                    "--base", b])
     direct = diagnosis.markdown(diagnosis.summarize([str(tmp_path / "runs")], window=10))
+    direct_b = diagnosis.markdown(diagnosis.summarize([str(tmp_path / "runs")], 10, base=b))
     import shutil
 
     shutil.rmtree(tmp_path / "runs")
     again = diagnosis.markdown(diagnosis.summarize([str(export)]))
     assert again == direct
+    # an export made with --base keeps it: its table compares with that run again
+    assert "vs_base" in direct_b and diagnosis.markdown(
+        diagnosis.summarize([str(against_b)])) == direct_b
     assert [r.split(" | ")[0] for r in direct.splitlines()[2:]] == [
         "| paper", "| agent.high.tau=0.01"]  # the budget is not a change
 
@@ -105,9 +118,14 @@ def test_a_run_without_a_finished_chunk_is_skipped_with_a_note(tmp_path, capsys)
 def test_the_command_names_a_bad_input_in_one_line(tmp_path, capsys):
     assert diagnosis.main([str(tmp_path / "nope")]) == 2
     assert diagnosis.main([str(tmp_path), "--line", "zero=abc"]) == 2
-    err = capsys.readouterr().err.splitlines()
-    assert len(err) == 2 and "nope is neither a run directory" in err[0]
+    write_run(tmp_path / "a", 0.0)
+    assert diagnosis.main([str(tmp_path), "--base", "no such run"]) == 2
+    captured = capsys.readouterr()
+    err = captured.err.splitlines()
+    assert len(err) == 3 and "nope is neither a run directory" in err[0]
     assert "--line 'zero=abc': expected LABEL=NUMBER" in err[1]
+    assert "--base 'no such run': no run has this label; the runs are [" in err[2]
+    assert not captured.out
 
 
 def test_a_run_is_labelled_by_its_preset_unless_paper_then_its_changes(tmp_path):

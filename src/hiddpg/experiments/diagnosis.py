@@ -11,7 +11,7 @@ committed under ``results/``) gives the same table and curves without the run di
 
 * ``score``: the mean of each seed's last :data:`LAST_EVALS` evaluations (less noisy than one),
   and ``vs_paper``: its difference to the unchanged run's (``paper``) with a Welch 95%
-  interval;
+  interval (``vs_base`` with ``--base LABEL``: to the run of that label);
 * ``eval_env_return`` and ``eval_switches``: the last noise-free evaluation;
 * ``env_return``, ``return``, HI-DDPG's ``reach_error`` (how far a segment ends from its
   goal), ``high_q_mean`` (the high critic's mean value of its batches, against ``return``,
@@ -19,8 +19,8 @@ committed under ``results/``) gives the same table and curves without the run di
   gradient's mean norm): training, last ``window`` episodes, where the run logged them.
 
 ``python -m hiddpg.experiments.diagnosis DIR|EXPORT.json [--at EPISODE] [--plot FILE.png]
-[--export FILE.json]`` prints the table (:func:`markdown`) and draws the evaluation curves
-(:func:`plot_curves`).
+[--export FILE.json] [--base LABEL]`` prints the table (:func:`markdown`) and draws the
+evaluation curves (:func:`plot_curves`).
 """
 
 from __future__ import annotations
@@ -137,20 +137,25 @@ def row(rec: dict[str, Any]) -> dict[str, Any]:
 
 
 def summarize(paths: list[str] | tuple[str, ...], window: int = 200,
-              at: int | None = None) -> list[dict[str, Any]]:
-    """One :func:`row` per run of :func:`collect`; rows get ``vs_paper`` where an unchanged
-    (``paper``) run is among them."""
-    rows = [row(r) for r in collect(paths, window, at)["runs"]]
-    base = next((r for r in rows if r["run"] == "paper" and "_scores" in r), None)
+              at: int | None = None, base: str | None = None) -> list[dict[str, Any]]:
+    """One :func:`row` per run of :func:`collect`; where the run labelled ``base`` is among
+    them, the others get their difference to it: ``vs_paper`` for the unchanged paper run,
+    ``vs_base`` for another base (e.g. ``"quick, agent.choice=actor"``). ``base`` defaults to
+    the one an exported study names, else ``paper``."""
+    study = collect(paths, window, at)
+    base = base or study.get("base") or "paper"
+    rows = [row(r) for r in study["runs"]]
+    ref = next((r for r in rows if r["run"] == base and "_scores" in r), None)
+    key = "vs_paper" if base == "paper" else "vs_base"
     for r in rows:
-        if base is not None and r is not base and "_scores" in r and len(r["_scores"]) > 1:
-            r["vs_paper"] = welch_interval(r["_scores"], base["_scores"])
+        if ref is not None and r is not ref and "_scores" in r and len(r["_scores"]) > 1:
+            r[key] = welch_interval(r["_scores"], ref["_scores"])
     return rows
 
 
 def markdown(rows: list[dict[str, Any]]) -> str:
     """The rows as a Markdown table (``mean ± std`` cells, blank where a run lacks a column)."""
-    columns = ["score", "vs_paper", *EVAL_COLUMNS, *WINDOW_COLUMNS]
+    columns = ["score", "vs_paper", "vs_base", *EVAL_COLUMNS, *WINDOW_COLUMNS]
     present = [c for c in columns if any(c in r for r in rows)]
     lines = ["| run | episodes | seeds | " + " | ".join(present) + " |",
              "|---|---|---|" + "---|" * len(present)]
@@ -164,7 +169,7 @@ def markdown(rows: list[dict[str, Any]]) -> str:
 def _cell(r: dict[str, Any], column: str) -> str:
     if column not in r:
         return ""
-    if column == "vs_paper":
+    if column in ("vs_paper", "vs_base"):
         diff, low, high = r[column]
         return f"{diff:+.3g} [{low:+.3g}, {high:+.3g}]"
     return f"{r[column][0]:.3g} ± {r[column][1]:.2g}"
@@ -229,6 +234,9 @@ def _main(argv: list[str] | None) -> None:
     p.add_argument("--export", type=Path, default=None,
                    help="write the study's records here (JSON; the table and curves read it)")
     p.add_argument("--title", default="")
+    p.add_argument("--base", default=None, metavar="LABEL",
+                   help="the run the others are compared with (vs_base; default: the one "
+                        "an exported study names, else paper); --export records it")
     p.add_argument("--line", action="append", default=[], metavar="LABEL=VALUE",
                    help="a horizontal reference line on the plot (repeatable)")
     args = p.parse_args(argv)
@@ -242,11 +250,17 @@ def _main(argv: list[str] | None) -> None:
     source = args.dirs
     if args.export:
         study = collect(args.dirs, args.window, args.at)
+        if args.base not in (None, "paper"):
+            study["base"] = args.base
         args.export.parent.mkdir(parents=True, exist_ok=True)
         args.export.write_text(json.dumps(study, indent=1) + "\n")
         print(f"wrote {args.export}")
         source = [str(args.export)]
-    print(markdown(summarize(source, args.window, args.at)))
+    rows = summarize(source, args.window, args.at, args.base)
+    if args.base is not None and not any(r["run"] == args.base for r in rows):
+        raise ValueError(f"--base {args.base!r}: no run has this label; the runs are "
+                         f"{[r['run'] for r in rows]}")
+    print(markdown(rows))
     if args.plot:
         print(f"wrote {plot_curves(source, args.plot, args.at, args.title, lines)}")
 
