@@ -6,6 +6,17 @@ python3 -m venv .venv
 .venv/bin/python -m pip install --quiet --upgrade pip
 .venv/bin/python -m pip install --quiet -e ".[dev]"
 .venv/bin/ruff check src tests benchmarks
+# JAX's persistent compilation cache, empty at the start of every run and removed after it:
+# the tests that train in a fresh process (resumes after a kill, the CLI, the README) compile
+# the same programs again, and read them back from here instead
+JAX_COMPILATION_CACHE_DIR="$(mktemp -d)"
+export JAX_COMPILATION_CACHE_DIR JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS=0.5
+trap 'rm -rf "$JAX_COMPILATION_CACHE_DIR"' EXIT
+# the tests marked heavy (long end-to-end checks: a Ray worker killed, CPU devices, faults at
+# random moments, two golden runs, a 3000-episode learning run) only with --heavy as the first
+# argument; without it, what CI runs
+marks=(-m "not heavy")
+if [[ "${1:-}" == "--heavy" ]]; then marks=(); shift; fi
 # two workers (the machine has two cores; most test time is XLA compilation, one core each);
 # --dist loadfile keeps each file's module fixtures in one worker
-.venv/bin/python -m pytest -q -n 2 --dist loadfile "$@"
+.venv/bin/python -m pytest -q -n 2 --dist loadfile ${marks[@]+"${marks[@]}"} "$@"

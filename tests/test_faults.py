@@ -77,6 +77,7 @@ def same_as_reference(run_dir: Path, reference: Path) -> None:
     assert runs.Run.open(run_dir).progress()["status"] == "finished"
 
 
+@pytest.mark.heavy
 def test_sigkill_at_random_moments_then_resume_is_bit_identical(reference, tmp_path):
     rng = random.Random(21)
     run_dir = tmp_path / "killed"
@@ -99,7 +100,8 @@ def test_sigkill_at_random_moments_then_resume_is_bit_identical(reference, tmp_p
     assert not list(run_dir.glob(".*.tmp"))
 
 
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+@pytest.mark.parametrize("sig", [signal.SIGTERM,
+                                 pytest.param(signal.SIGINT, marks=pytest.mark.heavy)])
 def test_signals_at_many_moments_stop_cleanly(reference, tmp_path, sig):
     """From argument parsing and compilation to training chunks: exit 128 + signal within
     seconds, no crash, the run (if made) marked interrupted with the signal's name; the last

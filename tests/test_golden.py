@@ -13,8 +13,10 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-CASES = ("hi-ddpg/PuckTrajectory1/quick", "hi-ddpg/PuckTrajectory2/quick+critic-durations",
-         "hi-ddpg/ArmObstacle/quick+arm-high-critic", "h-ddpg/PuckObstacle/quick")
+#: in CI: the arm's HI-DDPG (the most parts) and h-DDPG; the puck's HI-DDPG cases are heavy
+CASES = ("hi-ddpg/ArmObstacle/quick+arm-high-critic", "h-ddpg/PuckObstacle/quick",
+         *(pytest.param(c, marks=pytest.mark.heavy) for c in (
+             "hi-ddpg/PuckTrajectory1/quick", "hi-ddpg/PuckTrajectory2/quick+critic-durations")))
 
 
 def _golden_module():

@@ -178,6 +178,7 @@ def _kill_one_worker_mid_run(out: Path, names: list[str], temp_dir: str, driver,
     pytest.fail("no run was caught between its first checkpoint and its end")
 
 
+@pytest.mark.heavy
 def test_ray_sweep_survives_a_killed_worker(cluster, tmp_path):
     address, env, temp_dir = cluster
     spec = tmp_path / "sweep.toml"

@@ -142,6 +142,7 @@ def test_the_target_values_the_next_state_by_the_online_choice_and_the_target_ne
     np.testing.assert_array_equal(redrawn[:, :-1], inputs[:, :-1])
 
 
+@pytest.mark.heavy
 def test_with_the_reference_low_level_it_learns_the_reference_plan_of_puck_trajectory_2():
     """The high level alone (the puck's LQR controller as the low level): two goals near the
     reference's and one switch, where the actor's duration keeps one goal (why the critic picks
