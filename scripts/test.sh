@@ -13,8 +13,9 @@ JAX_COMPILATION_CACHE_DIR="$(mktemp -d)"
 export JAX_COMPILATION_CACHE_DIR JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS=0.5
 trap 'rm -rf "$JAX_COMPILATION_CACHE_DIR"' EXIT
 # the tests marked heavy (long end-to-end checks: a Ray worker killed, CPU devices, faults at
-# random moments, two golden runs, a 3000-episode learning run) only with --heavy as the first
-# argument; without it, what CI runs
+# random moments, two golden runs, a 3000-episode learning run, the hindsight learning run, a
+# Huber-schedule equivalence run) only with --heavy as the first argument; without it, what CI
+# runs
 marks=(-m "not heavy")
 if [[ "${1:-}" == "--heavy" ]]; then marks=(); shift; fi
 # two workers (the machine has two cores; most test time is XLA compilation, one core each);

@@ -133,6 +133,7 @@ def _reach_errors(*sets: str, episodes: int = 200) -> np.ndarray:
     return np.asarray(jax.jit(per_seed)(state.agent.low))
 
 
+@pytest.mark.heavy
 def test_hindsight_goals_teach_the_low_level_to_reach_much_sooner():
     """A learned outcome: after 200 episodes of random goals the low level with hindsight
     goals ends within about 0.3 of goals it was not trained on in particular (measured:

@@ -66,6 +66,7 @@ def _leaves(state):
     return [np.asarray(x) for x in jax.tree.leaves(state.agent)]
 
 
+@pytest.mark.heavy
 def test_scheduled_run_equals_one_continued_with_the_late_delta():
     first, late = _trainer("agent.high.huber.delta=10"), _trainer("agent.high.huber.delta=0.01")
     start = first.init_seeds(seed_keys([0, 1]))
