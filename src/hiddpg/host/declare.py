@@ -173,17 +173,16 @@ def value_sources(config: Any, env: Any) -> dict[str, Any]:
     shipped = catalogued(config.task[len(PREFIX):])
     goal = env.goal_space
 
-    def origin(part: str, own: str) -> str | None:
+    def origin(part: str, own: Any) -> str | None:
+        """Where the goal or skills (``part``) come from; ``own``: the environment's value."""
         value = getattr(declared, part)
         if value is None:
-            return own if getattr(env, "goal_space" if part == "goal" else part) is not None \
-                else None
+            return None if own is None else "the environment"
         if shipped is not None and value == getattr(shipped, part):
             return "hiddpg.host.catalog (shipped with hiddpg)"
         return f"--{part} / register_gym_task"
 
-    goal_from = origin("goal", "the environment")
-    skills_from = origin("skills", "the environment")
+    goal_from, skills_from = origin("goal", goal), origin("skills", env.skills)
     return {
         "preset": f"{config.preset}: its generic values (networks, learning rates, noise, "
                   "buffers, gamma, tau, budget), as for a task of no family; nothing of the "
