@@ -160,6 +160,7 @@ def test_seeds_on_cpu_devices_are_bitwise_independent_of_the_split(run_script):
     for k in keys:
         np.testing.assert_array_equal(two[k], one[k], err_msg=k)
     # seed 1 of the three (on one device, hence on two) == seed 1 alone
+    assert len(state_keys(one, 1)) == len(keys)
     for i in range(len(state_keys(one, 1))):
         np.testing.assert_array_equal(one[f"3_{i}"][1], one[f"1_{i}"][0])
 
