@@ -40,6 +40,8 @@ EXPECTED = {
                       "h-ddpg": ["skill.actor_output"]},
     "lr-x5": {"ddpg": ["actor_lr", "critic_lr"], "hi-ddpg": ["high.lr", "low.lr"],
               "h-ddpg": ["skill.actor_lr", "skill.critic_lr"]},
+    "lr-1e-3": {"ddpg": ["actor_lr"], "hi-ddpg": ["high.lr", "low.lr"],  # critics: 1e-3
+                "h-ddpg": ["skill.actor_lr"]},
     "high-every-step": {"ddpg": [], "hi-ddpg": ["eager_high"], "h-ddpg": []},
 }
 
@@ -58,6 +60,7 @@ def test_changes_set_the_values_they_name():
     assert get(paper, ["tau-0.01"]).low.tau == 0.01
     assert get(paper, ["lr-x5"]).high.lr == pytest.approx(5 * paper.high.lr)
     assert get(paper, ["lr-x25"]).low.lr == pytest.approx(25 * paper.low.lr)
+    assert (get(paper, ["lr-1e-3"]).high.lr, get(paper, ["lr-1e-3"]).low.lr) == (1e-3, 1e-3)
     assert get(paper, ["high-every-step"]).eager_high == EagerHighLevel(every_step=True)
     assert get(paper, ["linear-output"]).high.actor_output == "linear"
     assert get(paper, ["action-l2"]).low.action_l2 == 1.0

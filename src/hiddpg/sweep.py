@@ -16,6 +16,8 @@ import time
 from pathlib import Path
 
 from hiddpg import runner
+from hiddpg.host.declare import record_sources
+from hiddpg.host.task import is_gym_task
 from hiddpg.run_files import RunFileError
 from hiddpg.runs import CONFIG_FILE, PROGRESS_FILE, Run, atomic_write, make_trainer
 from hiddpg.sweep_spec import (
@@ -108,9 +110,13 @@ def open_run(run: SweepRun, out: Path) -> runner.ReadyRun | None:
     if state == FINISHED:
         return None
     path = out / run.name
+    run.declare()
     if state == NEW:
-        return runner.ReadyRun(runner.prepare_new(run.config, run.seeds, path),
-                               make_trainer(run.config), 0)
+        trainer = make_trainer(run.config)
+        ready = runner.ReadyRun(runner.prepare_new(run.config, run.seeds, path), trainer, 0)
+        if is_gym_task(run.config.task):  # where its values came from, as hiddpg train says
+            record_sources(path, run.config, trainer.env)
+        return ready
     return runner.open_for_resume(path)
 
 
@@ -149,7 +155,7 @@ def write_manifest(out: Path, runs: list[SweepRun]) -> None:
     for run in runs:
         entries[run.name] = {"algo": run.algo, "task": run.task, "preset": run.preset,
                              "seeds": list(run.seeds), "sets": list(run.sets),
-                             "grid": dict(run.grid)}
+                             "grid": dict(run.grid), **run.declaration()}
     atomic_write(path, (json.dumps({"runs": entries}, indent=2) + "\n").encode())
 
 

@@ -13,6 +13,10 @@ A sweep spec is a TOML table (docs/scaling.md; ``hiddpg sweep`` flags give the s
     algos = "ddpg"                       # the keys above, replaces algos/tasks/seeds/presets
     grid = { "agent.tau" = [0.01, 0.005] }                # and extends set/grid
 
+A Gymnasium task (``tasks = "Reacher-v5"``, ``gym:<id>``, ``module:Env-v0``) is named as for
+``hiddpg train``; ``goal = ["8:-0.3:0.3", "9:-0.3:0.3"]`` and ``skills = "MODULE:FUNCTION"``
+declare its goal and h-DDPG's skills as ``--goal`` and ``--skills`` do (a group replaces them).
+
 Names are deterministic, ``<algo>-<task>-<preset>[-<key>=<value>...]-<hash>`` with a hash of
 the whole config (seeds are not part of a config). Every config is validated by :func:`expand`
 before anything runs.
@@ -32,12 +36,13 @@ from typing import Any
 
 from hiddpg import runner
 from hiddpg.configs import TrainConfig
+from hiddpg.host.declare import declarations_scope, declare
 from hiddpg.presets import make_config
 from hiddpg.runs import make_trainer
 
-SPEC_KEYS = ("algos", "tasks", "seeds", "presets", "set", "grid", "group")
+SPEC_KEYS = ("algos", "tasks", "seeds", "presets", "set", "grid", "goal", "skills", "group")
 #: keys of a group that replace the top-level value; ``set`` and ``grid`` extend it instead
-REPLACED_KEYS = ("algos", "tasks", "seeds", "presets")
+REPLACED_KEYS = ("algos", "tasks", "seeds", "presets", "goal", "skills")
 DEFAULT_SEEDS = "0-14"
 DEFAULT_PRESET = "paper"
 HASH_DIGITS = 8
@@ -61,6 +66,19 @@ class SweepRun:
     seeds: tuple[int, ...]
     grid: tuple[tuple[str, Any], ...]
     config: TrainConfig
+    goal: tuple[str, ...] = ()
+    """A Gymnasium task's goal declaration, ``INDEX:LOW:HIGH`` entries (``--goal``)."""
+    skills: str | None = None
+    """A Gymnasium task's skills, ``MODULE:FUNCTION`` (``--skills``)."""
+
+    def declaration(self) -> dict[str, Any]:
+        """What the spec declares of the run's Gymnasium task (empty if nothing)."""
+        return {k: v for k, v in (("goal", list(self.goal)), ("skills", self.skills)) if v}
+
+    def declare(self) -> None:
+        """Register the declaration in this process (a Ray worker builds the run itself)."""
+        if self.goal or self.skills:
+            declare(self.task, self.goal, self.skills)
 
     def describe(self) -> str:
         point = ", ".join(f"{k}={_json(v)}" for k, v in self.grid)
@@ -72,6 +90,10 @@ class SweepRun:
                 "--preset", self.preset]
         for item in self.sets:
             argv += ["--set", item]
+        for entry in self.goal:
+            argv += ["--goal", entry]
+        if self.skills:
+            argv += ["--skills", self.skills]
         return argv + ["--out", str(out), "--name", self.name]
 
 
@@ -108,17 +130,19 @@ def expand(spec: dict[str, Any], source: str = "spec") -> list[SweepRun]:
             raise SweepError(f"{where}: {err}") from None
         points += _points(merged, where)
     runs, errors, names = [], {}, set()
-    for i, (algo, task, preset, seeds, sets, grid) in enumerate(points):
+    for i, (algo, task, preset, seeds, sets, grid, goal, skills) in enumerate(points):
         try:
-            config = make_config(algo, task, preset, sets)
-            make_trainer(config)  # builds env and agent: validates env overrides too
+            with declarations_scope():  # a Gymnasium declaration holds for its own run only
+                config = make_config(algo, declare(task, goal, skills), preset, sets)
+                make_trainer(config)  # builds env and agent: validates env overrides too
         except (ValueError, TypeError) as err:
             point = "".join(f", {k}={_json(v)}" for k, v in grid)
             errors.setdefault(str(err), []).append(f"run {i + 1} ({algo} {task} preset "
                                                    f"{preset}{point})")
             continue
-        run = SweepRun(run_name(config, grid), algo, config.task, preset, tuple(sets), seeds,
-                       grid, config)
+        declared = {k: v for k, v in (("goal", list(goal)), ("skills", skills)) if v}
+        run = SweepRun(run_name(config, grid, declared), algo, config.task, preset,
+                       tuple(sets), seeds, grid, config, goal, skills)
         if run.name not in names:  # two groups may give the same config: train it once
             names.add(run.name)
             runs.append(run)
@@ -155,12 +179,16 @@ def _merge(base: dict[str, Any], group: dict[str, Any]) -> dict[str, Any]:
 
 
 def _points(spec: dict[str, Any], where: str) -> list[tuple]:
-    """``(algo, task, preset, seeds, sets, grid point)`` for every combination."""
+    """``(algo, task, preset, seeds, sets, grid point, goal, skills)`` for every combination."""
     try:
         algos = _names(spec.get("algos"), "algos")
         tasks = _names(spec.get("tasks"), "tasks")
         presets = _names(spec.get("presets", DEFAULT_PRESET), "presets")
         seeds = _seeds(spec.get("seeds", DEFAULT_SEEDS))
+        goal = tuple(_names(spec["goal"], "goal")) if "goal" in spec else ()
+        skills = spec.get("skills")
+        if skills is not None and not isinstance(skills, str):
+            raise SweepError(f"skills = {skills!r} must be a string MODULE:FUNCTION")
     except SweepError as err:
         raise SweepError(f"{where}: {err}") from None
     grid = spec["grid"]
@@ -169,7 +197,7 @@ def _points(spec: dict[str, Any], where: str) -> list[tuple]:
         for values in itertools.product(*grid.values()):
             point = tuple(zip(grid, values, strict=True))
             sets = spec["set"] + [_set_string(k, v) for k, v in point]
-            out.append((algo, task, preset, seeds, sets, point))
+            out.append((algo, task, preset, seeds, sets, point, goal, skills))
     return out
 
 
@@ -238,10 +266,14 @@ def _set_string(key: str, value: Any) -> str:
 
 
 # -- names ------------------------------------------------------------------------------------
-def config_hash(config: TrainConfig) -> str:
+def config_hash(config: TrainConfig, declared: dict[str, Any] | None = None) -> str:
     """A hash of the config's values that differ from their defaults: a field added to a config
-    class later, at its default, leaves the names of existing runs unchanged."""
-    text = json.dumps(_non_defaults(config), sort_keys=True, separators=(",", ":"))
+    class later, at its default, leaves the names of existing runs unchanged. A Gymnasium
+    task's ``declared`` goal and skills count too (none: the names of other runs unchanged)."""
+    values = _non_defaults(config)
+    if declared:
+        values = {"config": values, "declared": declared}
+    text = json.dumps(values, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:HASH_DIGITS]
 
 
@@ -265,7 +297,8 @@ def _non_defaults(value: Any) -> Any:
     return value
 
 
-def run_name(config: TrainConfig, grid: tuple[tuple[str, Any], ...] = ()) -> str:
+def run_name(config: TrainConfig, grid: tuple[tuple[str, Any], ...] = (),
+             declared: dict[str, Any] | None = None) -> str:
     """``<algo>-<task>-<preset>[-<key>=<value>...]-<hash>``: readable, unique, deterministic."""
     def label(v: Any) -> str:
         if isinstance(v, list) and all(isinstance(x, int | float) for x in v):
@@ -279,4 +312,4 @@ def run_name(config: TrainConfig, grid: tuple[tuple[str, Any], ...] = ()) -> str
         if len(text) + 1 + len(part) > LABEL_MAX_CHARS:
             break
         text += "-" + part
-    return f"{text}-{config_hash(config)}"
+    return f"{text}-{config_hash(config, declared)}"

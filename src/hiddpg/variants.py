@@ -58,6 +58,14 @@ def _scale_lr(factor: float) -> Callable[[Any], Any]:
     return lambda agent: map_blocks(agent, scale)
 
 
+def _set_lr(value: float) -> Callable[[Any], Any]:
+    def set_rates(block: ActorCriticConfig) -> ActorCriticConfig:
+        rates = {n: value for n in ("lr", "actor_lr", "critic_lr") if hasattr(block, n)}
+        return dataclasses.replace(block, **rates)
+
+    return lambda agent: map_blocks(agent, set_rates)
+
+
 def _eager_high(agent: Any) -> Any:
     if not isinstance(agent, HIDDPGConfig):
         return agent
@@ -68,6 +76,7 @@ def _eager_high(agent: Any) -> Any:
 CHANGES: dict[str, Change] = {c.name: c for c in (
     Change("lr-x5", "learning rates ×5 at every level", _scale_lr(5.0)),
     Change("lr-x25", "learning rates ×25 at every level", _scale_lr(25.0)),
+    Change("lr-1e-3", "learning rate 1e-3 for every actor and critic", _set_lr(1e-3)),
     Change("tau-0.01", "target networks follow at τ = 0.01 (paper: silent; spec 0.001)",
            _blocks(tau=0.01)),
     Change("invert-gradients", "inverted gradients at the action bounds in every actor's "

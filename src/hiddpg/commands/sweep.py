@@ -37,6 +37,7 @@ from hiddpg.commands.common import Parser as _Parser
 from hiddpg.commands.common import UsageError, report_error, run_command
 from hiddpg.commands.sweep_progress import SweepProgress, reason
 from hiddpg.devices import DEVICES_ENV, cpu_cores
+from hiddpg.host.declare import declarations_scope
 from hiddpg.runs import Run
 from hiddpg.stopping import on_stop
 
@@ -67,6 +68,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--grid", action="append", default=[], metavar="KEY=V1,V2",
                    help="a grid axis: JSON values separated by commas, e.g. agent.tau=0.01,0.005"
                    " or agent.hidden=[64,64],[16,16] (repeatable)")
+    p.add_argument("--goal", action="append", default=[], metavar="INDEX:LOW:HIGH",
+                   help="a Gymnasium task's goal entry, as for hiddpg train (repeatable; "
+                   "replaces the spec's goal)")
+    p.add_argument("--skills", default=None, metavar="MODULE:FUNCTION",
+                   help="a Gymnasium task's h-DDPG skills, as for hiddpg train (replaces "
+                   "the spec's)")
     p.add_argument("--cpus-per-run", type=float, default=1.0, help="ray: CPUs a run reserves")
     p.add_argument("--gpus-per-run", type=float, default=0.0,
                    help="ray: GPUs a run reserves (fractions share a GPU)")
@@ -87,6 +94,10 @@ def spec_from_args(args: argparse.Namespace) -> dict[str, Any]:
             spec[key] = [v.strip() for v in getattr(args, key).split(",")]
     if args.seeds:
         spec["seeds"] = args.seeds
+    if args.goal:
+        spec["goal"] = list(args.goal)
+    if args.skills:
+        spec["skills"] = args.skills
     if args.sets:
         spec["set"] = sweep.set_list(spec.get("set", [])) + list(args.sets)
     if args.grid:
@@ -109,8 +120,9 @@ def _grid_values(raw: str) -> list:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``hiddpg sweep`` with ``argv``; returns the exit code."""
-    return run_command(PROG, argv, build_parser, _plan, _sweep,
-                       errors=(UsageError, sweep.SweepError))
+    with declarations_scope():  # Gymnasium declarations read from run directories end here
+        return run_command(PROG, argv, build_parser, _plan, _sweep,
+                           errors=(UsageError, sweep.SweepError))
 
 
 class _Plan(NamedTuple):

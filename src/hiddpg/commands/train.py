@@ -29,7 +29,6 @@ checkpoint (:mod:`hiddpg.stopping`). The loop itself is :func:`hiddpg.runner.tra
 from __future__ import annotations
 
 import argparse
-import json
 import re
 import sys
 from collections.abc import Callable, Sequence
@@ -41,6 +40,7 @@ from hiddpg.host.declare import (
     declarations_scope,
     declare,
     directory_name,
+    record_sources,
     sources_line,
     value_sources,
 )
@@ -48,7 +48,7 @@ from hiddpg.host.task import is_gym_task
 from hiddpg.paths import existing_dir, output_dir
 from hiddpg.plan import describe
 from hiddpg.reporter import ConsoleReporter
-from hiddpg.run_files import RunFileError, RunLockedError, atomic_write
+from hiddpg.run_files import RunFileError, RunLockedError
 from hiddpg.runner import (
     FAILED,
     FINISHED,
@@ -59,7 +59,7 @@ from hiddpg.runner import (
     prepare_new,
     train_run,
 )
-from hiddpg.runs import CONFIG_FILE, Run, default_name, make_trainer
+from hiddpg.runs import Run, default_name, make_trainer
 from hiddpg.stopping import on_stop
 from hiddpg.summary import final_evaluation, result_line, score_text
 from hiddpg.train import Trainer
@@ -169,9 +169,7 @@ def _prepare(args: argparse.Namespace) -> tuple[Run, Trainer]:
     except FileExistsError as err:
         raise UsageError(f"{err}; choose another --name or --resume it") from None
     if gym:  # where the values came from, next to the declaration in config.json
-        meta = json.loads((run.path / CONFIG_FILE).read_text())
-        meta["sources"] = value_sources(config, trainer.env)
-        atomic_write(run.path / CONFIG_FILE, (json.dumps(meta, indent=2) + "\n").encode())
+        record_sources(run.path, config, trainer.env)
     return run, trainer
 
 

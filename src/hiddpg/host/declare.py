@@ -199,6 +199,20 @@ def value_sources(config: Any, env: Any) -> dict[str, Any]:
     }
 
 
+def record_sources(path: Any, config: Any, env: Any) -> dict[str, Any]:
+    """Add :func:`value_sources` to the ``config.json`` of the new host run in ``path``;
+    returns them."""
+    import json
+
+    from hiddpg.run_files import atomic_write
+    from hiddpg.runs import CONFIG_FILE
+
+    meta = json.loads((path / CONFIG_FILE).read_text())
+    meta["sources"] = value_sources(config, env)
+    atomic_write(path / CONFIG_FILE, (json.dumps(meta, indent=2) + "\n").encode())
+    return meta["sources"]
+
+
 def sources_line(sources: dict[str, Any]) -> str:
     """:func:`value_sources` as one printed line."""
     env = sources["environment"]
