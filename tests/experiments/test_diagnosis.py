@@ -136,3 +136,35 @@ def test_a_run_is_labelled_by_its_preset_unless_paper_then_its_changes(tmp_path)
     (tmp_path / "sweep.json").write_text(json.dumps({"runs": runs}))
     labels = [diagnosis.changes(tmp_path / name) for name in ("a", "b", "c", "d", "e")]
     assert labels == ["paper", "agent.high.tau=0.01", "quick", "quick, agent.choice=actor", "e"]
+
+
+def test_labels_name_runs_in_the_table_the_export_and_the_curves(tmp_path, capsys):
+    write_run(tmp_path / "runs" / "a", 0.0)
+    write_run(tmp_path / "runs" / "b", -100.0)
+    (tmp_path / "runs" / "sweep.json").write_text(json.dumps({"runs": {
+        "a": {"preset": "paper", "sets": ["agent.high.tau=0.01", "episodes=40"]},
+        "b": {"preset": "paper", "sets": ["agent.high.tau=0.01", "agent.low.tau=0.01",
+                                          "episodes=40", "agent.high.tau=0.001"]}}}))
+    # a key the group sets again is listed once, with the value that holds
+    assert (diagnosis.changes(tmp_path / "runs" / "b")
+            == "agent.high.tau=0.001, agent.low.tau=0.01")
+    export = tmp_path / "study.json"
+    assert diagnosis.main([str(tmp_path / "runs"), "--window", "10", "--label", "a=candidate",
+                           "--base", "candidate", "--export", str(export),
+                           "--plot", str(tmp_path / "c.png")]) == 0
+    table = capsys.readouterr().out
+    assert "| candidate | 40 | 2 |" in table
+    assert ("| agent.high.tau=0.001, agent.low.tau=0.01 | 40 | 2 | -69.5 ± 0.71 "
+            "| -100 [-103, -97] |") in table
+    assert [r["run"] for r in json.loads(export.read_text())["runs"]] == [
+        "candidate", "agent.high.tau=0.001, agent.low.tau=0.01"]
+    assert diagnosis.main([str(export)]) == 0 and capsys.readouterr().out in table
+    # a name no run has, a malformed entry, a label for an export: one line each, exit 2
+    assert diagnosis.main([str(tmp_path / "runs"), "--label", "c=x"]) == 2
+    assert diagnosis.main([str(tmp_path / "runs"), "--label", "a"]) == 2
+    assert diagnosis.main([str(export), "--label", "a=x"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 3
+    assert "--label 'c': no run directory has this name; the runs are ['a', 'b']" in err[0]
+    assert "--label 'a': expected NAME=LABEL" in err[1]
+    assert "is an exported study; it keeps the labels it was exported with" in err[2]

@@ -45,13 +45,15 @@ EVAL_COLUMNS = ("eval_env_return", "eval_switches")
 
 def changes(path: Path) -> str:
     """The run's changes as the sweep that made it lists them (``sweep.json`` next to it;
-    its budget ``episodes=N`` left out), led by its preset unless that is ``paper``;
-    ``paper`` for none, the run's name outside a sweep."""
+    its budget ``episodes=N`` left out; a key set twice, by the spec and by its group, with
+    the value that holds, the last), led by its preset unless that is ``paper``; ``paper``
+    for none, the run's name outside a sweep."""
     manifest = path.parent / "sweep.json"
     if manifest.is_file():
         entry = json.loads(manifest.read_text()).get("runs", {}).get(path.name)
         if entry is not None:
-            sets = [s for s in entry.get("sets", []) if not s.startswith("episodes=")]
+            last = {s.partition("=")[0]: s for s in entry.get("sets", [])}
+            sets = [s for s in last.values() if not s.startswith("episodes=")]
             preset = entry.get("preset", "")
             return ", ".join(([preset] if preset != "paper" or not sets else []) + sets)
     return path.name
@@ -68,9 +70,10 @@ def cut(data: RunData, at: int | None) -> RunData:
                    {k: v[:, keep] for k, v in data.metrics.items()})
 
 
-def record(data: RunData, window: int = 200) -> dict[str, Any]:
-    """What the table and the curves need of one run, as plain lists (JSON)."""
-    out: dict[str, Any] = {"run": changes(data.path), "name": data.path.name,
+def record(data: RunData, window: int = 200, label: str | None = None) -> dict[str, Any]:
+    """What the table and the curves need of one run, as plain lists (JSON), labelled
+    ``label`` (default: :func:`changes`)."""
+    out: dict[str, Any] = {"run": label or changes(data.path), "name": data.path.name,
                            "algo": data.config.algo, "task": data.config.task,
                            "preset": data.config.preset, "seeds": list(data.seeds),
                            "episodes": int(data.episodes[-1]), "eval": {}, "window": {}}
@@ -87,19 +90,28 @@ def record(data: RunData, window: int = 200) -> dict[str, Any]:
 
 
 def collect(paths: list[str] | tuple[str, ...], window: int = 200,
-            at: int | None = None) -> dict[str, Any]:
+            at: int | None = None, labels: dict[str, str] | None = None) -> dict[str, Any]:
     """The study's records: one per run directory among ``paths`` (directories are
-    searched), or those of an exported study (a ``.json`` file)."""
+    searched), or those of an exported study (a ``.json`` file). ``labels``: run directory
+    name -> its label in the table (instead of its changes); a name no run has is an error."""
     if len(paths) == 1 and str(paths[0]).endswith(".json"):
+        if labels:
+            raise ValueError(f"--label: {paths[0]} is an exported study; it keeps the labels "
+                             "it was exported with")
         return json.loads(Path(paths[0]).read_text())
-    runs = []
-    for path in discover_runs(paths):
+    labels, runs = labels or {}, []
+    found = discover_runs(paths)
+    unknown = sorted(set(labels) - {p.name for p in found})
+    if unknown:
+        raise ValueError(f"--label {unknown[0]!r}: no run directory has this name; the runs "
+                         f"are {[p.name for p in found]}")
+    for path in found:
         try:
             data = load_run(path)
         except ExperimentError as err:  # a run that has not finished a chunk yet
             print(f"skipped: {err}", file=sys.stderr)
             continue
-        runs.append(record(cut(data, at), window))
+        runs.append(record(cut(data, at), window, labels.get(path.name)))
     return {"at": at, "window": window, "last_evals": LAST_EVALS, "runs": runs}
 
 
@@ -137,12 +149,13 @@ def row(rec: dict[str, Any]) -> dict[str, Any]:
 
 
 def summarize(paths: list[str] | tuple[str, ...], window: int = 200,
-              at: int | None = None, base: str | None = None) -> list[dict[str, Any]]:
+              at: int | None = None, base: str | None = None,
+              labels: dict[str, str] | None = None) -> list[dict[str, Any]]:
     """One :func:`row` per run of :func:`collect`; where the run labelled ``base`` is among
     them, the others get their difference to it: ``vs_paper`` for the unchanged paper run,
     ``vs_base`` for another base (e.g. ``"quick, agent.choice=actor"``). ``base`` defaults to
     the one an exported study names, else ``paper``."""
-    study = collect(paths, window, at)
+    study = collect(paths, window, at, labels)
     base = base or study.get("base") or "paper"
     rows = [row(r) for r in study["runs"]]
     ref = next((r for r in rows if r["run"] == base and "_scores" in r), None)
@@ -176,7 +189,8 @@ def _cell(r: dict[str, Any], column: str) -> str:
 
 
 def plot_curves(paths: list[str] | tuple[str, ...], out: Path, at: int | None = None,
-                title: str = "", lines: dict[str, float] | None = None) -> Path:
+                title: str = "", lines: dict[str, float] | None = None,
+                labels: dict[str, str] | None = None) -> Path:
     """Every run's evaluation curve (environment return, mean over seeds with a 95% t band),
     cut at ``at``, with horizontal reference ``lines`` (label -> value); written to ``out``."""
     from scipy import stats
@@ -186,7 +200,7 @@ def plot_curves(paths: list[str] | tuple[str, ...], out: Path, at: int | None = 
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.5))
     levels = list((lines or {}).values())
-    for rec in collect(paths, at=at)["runs"]:
+    for rec in collect(paths, at=at, labels=labels)["runs"]:
         if "eval_env_return" not in rec["eval"]:
             continue
         episodes = np.asarray(rec["eval_episodes"])
@@ -239,7 +253,16 @@ def _main(argv: list[str] | None) -> None:
                         "an exported study names, else paper); --export records it")
     p.add_argument("--line", action="append", default=[], metavar="LABEL=VALUE",
                    help="a horizontal reference line on the plot (repeatable)")
+    p.add_argument("--label", action="append", default=[], metavar="NAME=LABEL",
+                   help="label the run in directory NAME so in the table, the curves and an "
+                        "export (default: its changes; repeatable)")
     args = p.parse_args(argv)
+    labels = {}
+    for item in args.label:
+        name, sep, label = item.partition("=")
+        if not sep or not name or not label:
+            raise ValueError(f"--label {item!r}: expected NAME=LABEL (a run directory's name)")
+        labels[name] = label
     lines = {}
     for item in args.line:
         label, _, value = item.rpartition("=")
@@ -249,20 +272,20 @@ def _main(argv: list[str] | None) -> None:
             raise ValueError(f"--line {item!r}: expected LABEL=NUMBER") from None
     source = args.dirs
     if args.export:
-        study = collect(args.dirs, args.window, args.at)
+        study = collect(args.dirs, args.window, args.at, labels)
         if args.base not in (None, "paper"):
             study["base"] = args.base
         args.export.parent.mkdir(parents=True, exist_ok=True)
         args.export.write_text(json.dumps(study, indent=1) + "\n")
         print(f"wrote {args.export}")
-        source = [str(args.export)]
-    rows = summarize(source, args.window, args.at, args.base)
+        source, labels = [str(args.export)], {}
+    rows = summarize(source, args.window, args.at, args.base, labels)
     if args.base is not None and not any(r["run"] == args.base for r in rows):
         raise ValueError(f"--base {args.base!r}: no run has this label; the runs are "
                          f"{[r['run'] for r in rows]}")
     print(markdown(rows))
     if args.plot:
-        print(f"wrote {plot_curves(source, args.plot, args.at, args.title, lines)}")
+        print(f"wrote {plot_curves(source, args.plot, args.at, args.title, lines, labels)}")
 
 
 if __name__ == "__main__":  # pragma: no cover
