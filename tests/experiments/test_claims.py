@@ -13,6 +13,7 @@ import json
 import numpy as np
 import pytest
 
+from hiddpg import variants
 from hiddpg.commands import report as report_cmd
 from hiddpg.experiments import claims, comparison
 from hiddpg.experiments.artifacts import ARTIFACT_FORMAT, export_run, load_artifact
@@ -98,6 +99,14 @@ def _comparison(ctx, name, task, seeds=15, episodes=40, every=4):
 
 @pytest.fixture(scope="module")
 def outputs(tmp_path_factory):
+    """Four outputs; ``paper+`` made to add nothing, so that its column is read from
+    ``paper``'s (what :func:`hiddpg.variants.same_as` gives a variant without changes)."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setitem(variants.VARIANTS, "paper+", ())
+        yield _outputs(tmp_path_factory)
+
+
+def _outputs(tmp_path_factory):
     root = tmp_path_factory.mktemp("claims")
     paper = Context(root / "paper" / "paper", scale="paper", variant="paper")
     write_context(paper)
