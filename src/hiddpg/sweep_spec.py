@@ -73,7 +73,7 @@ class SweepRun:
 
     def declaration(self) -> dict[str, Any]:
         """What the spec declares of the run's Gymnasium task (empty if nothing)."""
-        return {k: v for k, v in (("goal", list(self.goal)), ("skills", self.skills)) if v}
+        return declaration(self.goal, self.skills)
 
     def declare(self) -> None:
         """Register the declaration in this process (a Ray worker builds the run itself)."""
@@ -140,8 +140,7 @@ def expand(spec: dict[str, Any], source: str = "spec") -> list[SweepRun]:
             errors.setdefault(str(err), []).append(f"run {i + 1} ({algo} {task} preset "
                                                    f"{preset}{point})")
             continue
-        declared = {k: v for k, v in (("goal", list(goal)), ("skills", skills)) if v}
-        run = SweepRun(run_name(config, grid, declared), algo, config.task, preset,
+        run = SweepRun(run_name(config, grid, declaration(goal, skills)), algo, config.task, preset,
                        tuple(sets), seeds, grid, config, goal, skills)
         if run.name not in names:  # two groups may give the same config: train it once
             names.add(run.name)
@@ -149,6 +148,12 @@ def expand(spec: dict[str, Any], source: str = "spec") -> list[SweepRun]:
     if errors:
         raise SweepError(_error_report(errors, len(points)))
     return runs
+
+
+def declaration(goal: tuple[str, ...], skills: str | None) -> dict[str, Any]:
+    """A Gymnasium task's ``goal`` entries and ``skills`` as a run records them (empty if
+    neither is given)."""
+    return {k: v for k, v in (("goal", list(goal)), ("skills", skills)) if v}
 
 
 def _error_report(errors: dict[str, list[str]], n_runs: int) -> str:
