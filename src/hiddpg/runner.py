@@ -81,6 +81,17 @@ def parse_seeds(text: str) -> list[int]:
     return seeds
 
 
+def seed_ranges(seeds: Sequence[int]) -> list[str]:
+    """The inverse of :func:`parse_seeds`, in order: 0..4 and 7 -> ``["0-4", "7"]``."""
+    runs: list[list[int]] = []
+    for s in sorted(int(s) for s in seeds):
+        if runs and s == runs[-1][-1] + 1:
+            runs[-1].append(s)
+        else:
+            runs.append([s])
+    return [f"{r[0]}-{r[-1]}" if len(r) > 1 else f"{r[0]}" for r in runs]
+
+
 def _check_seeds(seeds: list[int], text: str) -> None:
     if not seeds:
         raise ValueError(f"seeds {text}: give at least one seed")

@@ -4,7 +4,7 @@
 
     hiddpg reproduce {fig3,fig4,fig5,fig6,fig7,fig8,all} [--scale quick|paper]
                      [--variant quick|paper|paper+|extended] [--seeds N]
-                     [--out DIR] [--episodes N] [--set KEY=VALUE ...]
+                     [--out DIR] [--episodes N] [--set KEY=VALUE ...] [--part SEEDS]
 
 Runs go to ``DIR/runs/<algo>-<task>/`` and are shared between figures; every run on disk is
 reused (a finished one as is, an interrupted one resumed), so an invocation that is killed
@@ -16,7 +16,10 @@ takes minutes; ``--scale paper`` (15 seeds, the paper's budgets) takes hours. ``
 says what is trained (default: ``quick`` at quick scale, ``paper`` at paper scale); every
 figure and the report name it. ``all`` draws the puck figures before the arm's (cheap runs
 first); ``--dry-run`` lists the runs it would train, resume or reuse and the environment steps
-left.
+left. ``--part 0-4`` trains only those seeds of each run, as a run of their own whose artifact
+(``DIR/parts/``, committed like the artifacts) is merged with the other parts into the run's
+artifact (:mod:`hiddpg.experiments.parts`): a run longer than one sitting is trained part by
+part, on any machine, and the figures are drawn from the seeds merged so far.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ from hiddpg.experiments.common import (
 )
 from hiddpg.experiments.rundata import ExperimentError
 from hiddpg.run_files import RunFileError, RunLockedError
+from hiddpg.runner import parse_seeds
 from hiddpg.stopping import on_stop
 
 PROG = "hiddpg reproduce"
@@ -58,6 +62,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "quick scale, paper at paper scale)")
     p.add_argument("--seeds", type=int, default=None,
                    help="runs per method (seeds 0..N-1; default: the scale's)")
+    p.add_argument("--part", default=None, metavar="SEEDS",
+                   help="train only these seeds of each run (e.g. 0-4 or 5,6), as a run of "
+                        "their own, and merge its artifact with the other parts in DIR/parts; "
+                        "the figures show the seeds merged so far")
     p.add_argument("--out", default=None,
                    help="output directory (default results/<scale>/<variant>)")
     p.add_argument("--episodes", type=int, default=None,
@@ -93,9 +101,13 @@ def _context(args: argparse.Namespace) -> Context:
         raise UsageError(f"--episodes {args.episodes} must be >= 1")
     tasks = tuple(t for t in (args.tasks or "").split(",") if t) or None
     variant = args.variant or DEFAULT_VARIANT[args.scale]
+    try:
+        part = tuple(parse_seeds(args.part)) if args.part is not None else None
+    except ValueError as err:
+        raise UsageError(f"--part: {err}") from None
     ctx = Context(out=args.out or f"results/{args.scale}/{variant}", scale=args.scale,
                   variant=variant, seeds=args.seeds, episodes=args.episodes, sets=tuple(args.sets),
-                  tasks=tasks)
+                  tasks=tasks, part=part)
     ctx.config("hi-ddpg", "PuckTrajectory1")  # a bad --set fails here, before training
     return ctx
 
@@ -115,8 +127,12 @@ def _reproduce(args: argparse.Namespace, ctx: Context) -> int:
         return 0
     figures = CHEAP_FIRST if args.figure == "all" else (args.figure,)
     if args.dry_run:
+        try:
+            table = plan_table(plan(ctx, figures))
+        except (ExperimentError, RunFileError) as err:
+            return report_error(PROG, err, code=1)
         print(f"{PROG}: {ctx.note()}, into {ctx.out}; nothing is trained (--dry-run)")
-        print(plan_table(plan(ctx, figures)))
+        print(table)
         return 0
     draw, t0 = runners(), time.perf_counter()
     stopped = on_stop(lambda sig: print(f"{PROG}: stopped by {sig}; run the same command "

@@ -61,13 +61,21 @@ def package_version() -> str:
 def export_run(run_dir: str | Path, dest: str | Path) -> Path:
     """Write the artifact of the run directory ``run_dir`` to ``dest`` (meta.json last, so a
     directory with it is whole); returns ``dest``."""
-    run_dir, dest = Path(run_dir), Path(dest)
+    run_dir = Path(run_dir)
     if is_artifact(run_dir):
         raise ExperimentError(f"{run_dir} is an artifact, not a run directory")
     data, progress = load_run(run_dir), Run.open(run_dir).progress()
+    return write_artifact(data, (run_dir / CONFIG_FILE).read_bytes(), progress, dest)
+
+
+def write_artifact(data: RunData, config_json: bytes, progress: dict[str, Any],
+                   dest: str | Path, **extra: Any) -> Path:
+    """Write ``data`` (a run read back), its config.json and its progress as the artifact
+    ``dest``, meta.json last; ``extra`` entries are added to meta.json. Returns ``dest``."""
+    dest = Path(dest)
     blocks, snaps = data.training, data.snapshots()
     evaluations = [c for c in data.metrics if c.startswith("eval_")]
-    files = {CONFIG_FILE: (run_dir / CONFIG_FILE).read_bytes(),
+    files = {CONFIG_FILE: config_json,
              EVALUATIONS_FILE: _evaluations_csv(data, evaluations),
              TRAINING_FILE: _training_csv(data.seeds, blocks),
              SNAPSHOTS_FILE: snapshots_to_json(snaps).encode()}
@@ -81,7 +89,7 @@ def export_run(run_dir: str | Path, dest: str | Path) -> Path:
             "training_columns": list(blocks.means), "evaluation_columns": evaluations,
             "snapshot_episodes": [s.episode for s in snaps],
             "snapshot_position_digits": POSITION_DIGITS,
-            "files": {name: len(content) for name, content in files.items()}}
+            "files": {name: len(content) for name, content in files.items()}, **extra}
     dest.mkdir(parents=True, exist_ok=True)
     (dest / META_FILE).unlink(missing_ok=True)
     for name, content in files.items():

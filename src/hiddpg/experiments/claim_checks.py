@@ -25,13 +25,14 @@ import numpy as np
 from scipy import stats as sps
 
 from hiddpg.experiments.artifacts import ARTIFACTS_DIR, load_artifact, read_meta
-from hiddpg.experiments.common import SCALES
+from hiddpg.experiments.common import BUDGETS, SCALES
 from hiddpg.experiments.comparison import ALPHA, compare
 from hiddpg.experiments.comparison import FIGURES as COMPARED_TASK
 from hiddpg.experiments.redraw import CONTEXT_FILE
 from hiddpg.experiments.report import fmt_ci, fmt_pm, load_sections
 from hiddpg.experiments.rundata import LABELS, ExperimentError
 from hiddpg.experiments.trajectory import TASKS as TRAJECTORY
+from hiddpg.runner import seed_ranges
 
 REPRODUCED, NOT_REPRODUCED, NOT_RUN = "reproduced", "not reproduced", "not run"
 MOST_RUNS = 0.8
@@ -52,13 +53,18 @@ class Outcome:
     text: str = ""
     numbers: dict[str, Any] = field(default_factory=dict)
     seeds: list[int] = field(default_factory=list)
+    planned: int | None = None
+    """The runs per method the output is meant to hold (seeds 0..planned-1); fewer seeds
+    (a run trained part by part, not yet whole) are named in the cell."""
 
     def cell(self) -> str:
-        """The markdown table cell: verdict, numbers, seeds."""
+        """The markdown table cell: verdict, numbers, seeds (of the planned ones, if fewer)."""
         if self.verdict == NOT_RUN and not self.text:
             return "not run yet"
         head = f"**{self.verdict}**" if self.verdict != NOT_RUN else "not run yet"
         seeds = f"; seeds {seed_text(self.seeds)}" if self.seeds else ""
+        if self.seeds and self.planned and len(self.seeds) < self.planned:
+            seeds += f" of 0-{self.planned - 1} so far"
         return f"{head}: {self.text}{seeds}"
 
 
@@ -70,6 +76,7 @@ class Output:
         self.path = Path(path)
         self.sections = load_sections(self.path) if self.path.is_dir() else {}
         self.label = _label(self.path, self.sections)
+        self.planned = _planned(self.path)
         self._comparisons: dict[str, tuple[Any, list[int]]] = {}
 
     def seeds(self, algo: str, tasks: Sequence[str]) -> list[int]:
@@ -118,21 +125,22 @@ def _label(path: Path, sections: dict[str, dict]) -> str:
     return str(path)
 
 
+def _planned(path: Path) -> int | None:
+    """The runs per method the output asked for (``--seeds``), else its scale's budget's."""
+    recorded = path / ARTIFACTS_DIR / CONTEXT_FILE
+    if not recorded.is_file():
+        return None
+    data = json.loads(recorded.read_text())
+    return data.get("seeds") or max((b.seeds for (s, _), b in BUDGETS.items()
+                                     if s == data.get("scale")), default=None)
+
+
 # ------------------------------------------------------------------------------ helpers
 
 
 def seed_text(seeds: Sequence[int]) -> str:
     """``0-14``, ``0-2, 5``: the seeds as runs of consecutive numbers."""
-    parts, seeds = [], sorted(seeds)
-    start = prev = seeds[0]
-    for s in [*seeds[1:], None]:
-        if s is not None and s == prev + 1:
-            prev = s
-            continue
-        parts.append(str(start) if start == prev else f"{start}-{prev}")
-        if s is not None:
-            start = prev = s
-    return ", ".join(parts)
+    return ", ".join(seed_ranges(seeds))
 
 
 def proportion_ci(k: int, n: int) -> tuple[float, float]:

@@ -129,8 +129,11 @@ def assess(dirs: Sequence[str | Path]) -> Assessment:
             labels.append(outputs[-1].label)
     labels = [f"{label}, {o.path}" if labels.count(label) > 1 else label
               for label, o in zip(labels, outputs, strict=True)]
-    return Assessment(labels, [str(o.path) for o in outputs],
-                      {c.number: [CHECKS[c.number](o) for o in outputs] for c in CLAIMS})
+    outcomes = {c.number: [CHECKS[c.number](o) for o in outputs] for c in CLAIMS}
+    for rows in outcomes.values():
+        for outcome, out in zip(rows, outputs, strict=True):
+            outcome.planned = out.planned
+    return Assessment(labels, [str(o.path) for o in outputs], outcomes)
 
 
 def markdown(assessment: Assessment) -> str:

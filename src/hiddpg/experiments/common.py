@@ -6,17 +6,19 @@ An experiment's output directory ``OUT`` holds::
         snapshots/episode_NNNNNN.npz   a noise-free evaluation episode per seed after each chunk
     artifacts/<algo>-<task>/  each run's artifact: what the figures read, small enough to
                               commit (:mod:`hiddpg.experiments.artifacts`)
+    parts/<algo>-<task>/seeds-A-B/  with ``--part A-B``: the artifact of the run of those
+                              seeds, merged into the run's artifact (:mod:`.parts`)
     artifacts/reproduce.json  what the invocation asked for (:mod:`hiddpg.experiments.redraw`)
     figures/figN.png|pdf  the figures
     sections/figN.json    each figure's numbers and report text (report.md is built from them)
     report.md             the numbers behind the figures
 
 :func:`ensure_run` trains a run (:func:`hiddpg.runner.train_run`) only if it is not on disk:
-a finished run is reused as is, an interrupted one is resumed from its last checkpoint, a run
-whose config differs from the one asked for is an error (use another ``--out``); every run it
-returns has its artifact written. A context ``from_artifacts`` (``hiddpg report``) trains
-nothing: :func:`ensure_run` returns the artifact. This module is shell: files and the run loop,
-no plotting.
+a finished run, or a finished artifact holding its seeds, is reused as is, an interrupted run
+is resumed from its last checkpoint, a run or artifact whose config differs from the one asked
+for is an error (use another ``--out``); every run it returns has its artifact written. A
+context ``from_artifacts`` (``hiddpg report``) trains nothing: :func:`ensure_run` returns the
+artifact. This module is shell: files and the run loop, no plotting.
 """
 
 from __future__ import annotations
@@ -32,10 +34,18 @@ from hiddpg import runner, summary
 from hiddpg.algorithms import get_algorithm
 from hiddpg.configs import HIDDPGConfig, TrainConfig
 from hiddpg.experiments.artifacts import ARTIFACTS_DIR, export_run, is_artifact
+from hiddpg.experiments.parts import (
+    PARTS_DIR,
+    check_new_part,
+    holds_finished,
+    merge_parts,
+    part_label,
+)
 from hiddpg.experiments.rundata import ExperimentError
 from hiddpg.experiments.snapshots import SNAPSHOT_DIR, snapshot_name, write_snapshot
 from hiddpg.presets import ARM_HIGH_CRITIC, CRITIC_DURATIONS
 from hiddpg.reporter import ConsoleReporter
+from hiddpg.runner import seed_ranges
 from hiddpg.runs import CONFIG_FILE, Run, make_trainer
 
 SCALES = ("quick", "paper")
@@ -159,6 +169,9 @@ class Context:
     """Draw from ``out/artifacts`` only: no training, ``out/runs`` is never read."""
     described: str | None = None
     """The variant's description recorded with the artifacts; ``None``: its current one."""
+    part: tuple[int, ...] | None = None
+    """Train only these seeds of each run, as a run of their own whose artifact is merged
+    with the other parts on disk (:mod:`hiddpg.experiments.parts`); ``None``: whole runs."""
 
     def __post_init__(self) -> None:
         if self.scale not in SCALES:
@@ -169,6 +182,12 @@ class Context:
                              f"{list(REPRODUCE_VARIANTS)}")
         if self.seeds is not None and self.seeds < 1:
             raise ValueError(f"seeds={self.seeds} must be >= 1")
+        if self.part is not None:
+            n = self.seeds or max(b.seeds for (s, _), b in BUDGETS.items() if s == self.scale)
+            if not self.part or any(not 0 <= s < n for s in self.part):
+                raise ValueError(f"part={list(self.part)} must be seeds of the runs' "
+                                 f"0..{n - 1} ({n} seeds per run)")
+            self.part = tuple(sorted(self.part))
         self.out = Path(self.out)
 
     def say(self, message: str) -> None:
@@ -190,10 +209,17 @@ class Context:
         return self.described or self.spec.describe()
 
     def seed_list(self, task: str) -> list[int]:
-        return list(range(self.seeds or self.budget(task).seeds))
+        """The seeds this invocation trains of a run on ``task`` (its part's, if any)."""
+        return list(self.part or range(self.seeds or self.budget(task).seeds))
 
     def run_path(self, algo: str, task: str) -> Path:
-        return self.out / "runs" / f"{algo}-{task}"
+        """The run directory this invocation trains (its part's, if any)."""
+        suffix = f".{part_label(self.part)}" if self.part else ""
+        return self.out / "runs" / f"{algo}-{task}{suffix}"
+
+    def parts_path(self, algo: str, task: str) -> Path:
+        """Where the parts of the run of ``algo`` on ``task`` keep their artifacts."""
+        return self.out / PARTS_DIR / f"{algo}-{task}"
 
     def artifact_path(self, algo: str, task: str) -> Path:
         return self.out / ARTIFACTS_DIR / f"{algo}-{task}"
@@ -278,13 +304,21 @@ def available(ctx: Context, algo: str, task: str) -> str | None:
 def ensure_run(ctx: Context, algo: str, task: str) -> Path:
     """The run directory of ``algo`` on ``task``, trained to its budget: reused if finished,
     resumed if interrupted, created otherwise; the last snapshot is made if missing, the
-    artifact written. From artifacts: the artifact directory, nothing trained."""
+    artifact written. An artifact on disk that already holds the run's seeds, finished (a
+    committed one, its run directory gone), is returned as it is. From artifacts: the artifact
+    directory, nothing trained. With a part: the part's run is trained so, its artifact merged
+    with the other parts', and the merged artifact returned."""
     if ctx.from_artifacts:
         if why := available(ctx, algo, task):
             raise ExperimentError(f"{why}; `hiddpg reproduce` writes it")
         return ctx.artifact_path(algo, task)
-    path, config = ctx.run_path(algo, task), ctx.config(algo, task)
-    seeds = ctx.seed_list(task)
+    artifact, config = ctx.artifact_path(algo, task), ctx.config(algo, task)
+    path, seeds = ctx.run_path(algo, task), ctx.seed_list(task)
+    if holds_finished(artifact, config, seeds, part=bool(ctx.part)):
+        ctx.say(f"{artifact}: finished, reused (seeds {', '.join(seed_ranges(seeds))})")
+        return artifact
+    if ctx.part:
+        check_new_part(ctx.parts_path(algo, task), ctx.part)
     if (path / CONFIG_FILE).is_file():
         run = Run.open(path)
         _check_same(run, config, seeds)
@@ -307,8 +341,11 @@ def ensure_run(ctx: Context, algo: str, task: str) -> Path:
     run = Run.open(path)
     if not (path / SNAPSHOT_DIR / snapshot_name(run.checkpoint_episodes())).is_file():
         write_snapshot(run)
-    export_run(path, ctx.artifact_path(algo, task))
-    return path
+    if not ctx.part:
+        export_run(path, artifact)
+        return path
+    export_run(path, ctx.parts_path(algo, task) / part_label(ctx.part))
+    return merge_parts(ctx.parts_path(algo, task), artifact)
 
 
 def _train(path: Path, open_run: Callable[[], runner.ReadyRun]) -> None:

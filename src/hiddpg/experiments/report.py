@@ -85,6 +85,21 @@ def training_wall_time(out: Path, from_artifacts: bool = False) -> dict[str, flo
     return times
 
 
+def runs_table(out: Path) -> list[str]:
+    """Markdown lines: every artifact under ``out/artifacts`` with the seeds it holds, its
+    episodes and status, and the parts it was merged from (:mod:`.parts`)."""
+    from hiddpg.runner import seed_ranges
+
+    lines = ["| run | seeds | episodes | status | trained in |", "|---|---|---:|---|---|"]
+    for path in sorted((out / "artifacts").glob(f"*/{META_FILE}")):
+        meta = json.loads(path.read_text())
+        parts = meta.get("parts")
+        made = (", ".join(p["part"] for p in parts) if parts else "one run")
+        lines.append(f"| {path.parent.name} | {', '.join(seed_ranges(meta['seeds']))} | "
+                     f"{meta.get('episodes')} | {meta.get('status')} | {made} |")
+    return lines
+
+
 def write_report(ctx: Context, invocation_s: float | None = None) -> Path:
     """Rebuild ``report.md`` from the stored sections."""
     sections = load_sections(ctx.out)
@@ -97,8 +112,9 @@ def write_report(ctx: Context, invocation_s: float | None = None) -> Path:
              f"Variant {ctx.describe()}.", "",
              f"{writer} on {time.strftime('%Y-%m-%d %H:%M:%S')}; "
              f"{seeds} seeds per method (seeds 0-{seeds - 1}); the run (seed) is the unit of "
-             "every statistic.", "",
-             "## Budgets", "", budget_table(), "", "## Variants", "", variant_table(), ""]
+             "every statistic; the seeds each run holds so far are in the table of runs.", "",
+             "## Budgets", "", budget_table(), "", "## Variants", "", variant_table(), "",
+             "## Runs", "", *runs_table(ctx.out), ""]
     if ctx.episodes or ctx.sets or ctx.seeds:
         lines += [f"Overrides of this output: seeds={ctx.seeds}, episodes={ctx.episodes}, "
                   f"set={list(ctx.sets)}.", ""]

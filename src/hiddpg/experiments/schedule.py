@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from hiddpg.experiments.common import Context
+from hiddpg.experiments.parts import holds_finished
 from hiddpg.runs import CONFIG_FILE, Run
 
 #: The order ``reproduce all`` draws the figures in: cheap runs first.
@@ -61,7 +62,9 @@ def plan(ctx: Context, figures: tuple[str, ...] | list[str]) -> list[PlannedRun]
     for (algo, task), needed_by in order.items():
         config, seeds = ctx.config(algo, task), ctx.seed_list(task)
         path, done, status = ctx.run_path(algo, task), 0, "new"
-        if (path / CONFIG_FILE).is_file():
+        if holds_finished(ctx.artifact_path(algo, task), config, seeds, part=bool(ctx.part)):
+            done, status = config.episodes, "finished"
+        elif (path / CONFIG_FILE).is_file():
             run = Run.open(path)
             done, state = run.checkpoint_episodes(), run.progress().get("status")
             status = ("finished" if state == "finished" and done >= config.episodes
