@@ -267,7 +267,7 @@ def test_extended_variant_gets_the_critic_durations_and_6000_episodes(tmp_path):
     """Variant ``extended`` at paper scale: HI-DDPG on PuckTrajectory1-3 with
     ``CRITIC_DURATIONS`` for 6000 episodes, on ArmObstacle with ``ARM_HIGH_CRITIC``; the other
     tasks, the other algorithms and the quick scale keep the presets' budgets."""
-    from hiddpg.experiments.common import variant_table
+    from hiddpg.experiments.budgets import variant_table
 
     paper = Context(tmp_path, scale="paper", variant="extended")
     quick = Context(tmp_path, scale="quick")

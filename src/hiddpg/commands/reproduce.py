@@ -31,14 +31,14 @@ from collections.abc import Callable, Sequence
 
 from hiddpg.commands.common import Parser as _Parser
 from hiddpg.commands.common import UsageError, report_error, run_command
-from hiddpg.experiments.common import (
+from hiddpg.experiments.budgets import (
     DEFAULT_VARIANT,
     REPRODUCE_VARIANTS,
     SCALES,
-    Context,
     budget_table,
     variant_table,
 )
+from hiddpg.experiments.common import Context
 from hiddpg.experiments.rundata import ExperimentError
 from hiddpg.run_files import RunFileError, RunLockedError
 from hiddpg.runner import parse_seeds

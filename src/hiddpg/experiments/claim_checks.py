@@ -25,7 +25,7 @@ import numpy as np
 from scipy import stats as sps
 
 from hiddpg.experiments.artifacts import ARTIFACTS_DIR, load_artifact, read_meta
-from hiddpg.experiments.common import BUDGETS, SCALES
+from hiddpg.experiments.budgets import BUDGETS, SCALES
 from hiddpg.experiments.comparison import ALPHA, compare
 from hiddpg.experiments.comparison import FIGURES as COMPARED_TASK
 from hiddpg.experiments.redraw import CONTEXT_FILE

@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 
 from hiddpg.experiments.artifacts import META_FILE
-from hiddpg.experiments.common import BUDGETS, Context, budget_table, variant_table
+from hiddpg.experiments.budgets import BUDGETS, budget_table, variant_table
+from hiddpg.experiments.common import Context
 from hiddpg.runs import PROGRESS_FILE, atomic_write
 
 ORDER = ("fig3", "fig4", "fig5", "fig6", "fig7", "fig8")
