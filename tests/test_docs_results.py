@@ -14,7 +14,7 @@ from hiddpg.experiments import claims
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "results.md"
 MAX_CELL = 250
-MAX_LINES = 200
+MAX_LINES = 320
 
 
 @pytest.fixture(scope="module")
@@ -35,6 +35,19 @@ def test_the_verdicts_are_what_the_committed_outputs_give(text, monkeypatch):
     table = claims.markdown(claims.assess(claims.DEFAULT_DIRS))
     assert table in text, ("the claims table in docs/results.md is stale; paste the output of "
                            "`hiddpg claims` (run from the repository root)")
+
+
+def test_each_figure_s_numbers_are_what_the_committed_outputs_give(text, monkeypatch):
+    """Under each figure's heading: every output's figure and numbers, as `hiddpg claims
+    --figures` prints them from the committed sections."""
+    from hiddpg.commands.reproduce import FIGURES
+
+    monkeypatch.chdir(ROOT)
+    assessment = claims.assess(claims.DEFAULT_DIRS)
+    for name in FIGURES:
+        block = claims.figure_markdown(assessment, name)
+        assert block in text, (f"{name}'s numbers in docs/results.md are stale; paste its "
+                               "block of `hiddpg claims --figures`")
 
 
 def test_the_claims_and_bars_are_the_code_s(text):

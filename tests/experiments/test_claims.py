@@ -222,3 +222,30 @@ def test_seed_ranges_and_exact_intervals():
     assert seed_text([0, 1, 2, 5, 7, 8]) == "0-2, 5, 7-8" and seed_text([3]) == "3"
     assert proportion_ci(0, 15)[0] == 0 and proportion_ci(15, 15)[1] == 1
     assert count_text(12, 15) == "12/15 (52-96%)"
+
+
+def test_figure_blocks_give_each_output_s_section_once(outputs, tmp_path):
+    dirs, assessment = outputs
+    section = json.loads((dirs[0] / "sections" / "fig6.json").read_text())
+    section.update(figures=["figures/fig6.png", "figures/fig6.pdf"], markdown="| a |\n|---|\n")
+    (dirs[0] / "sections" / "fig6.json").write_text(json.dumps(section))
+    block = claims.figure_markdown(assessment, "fig6")
+    paper, quick = assessment.outputs[0], assessment.outputs[1]
+    assert block.startswith(f"**{paper}** (`{dirs[0]}`):\n\n![fig6, {paper}](../{dirs[0]}/"
+                            "figures/fig6.png)\n\n| a |\n|---|")
+    assert f"**{quick}** (`{dirs[1]}`)" in block
+    assert block.count(str(dirs[0])) == 2  # paper+ is read from paper's output: not again
+    assert claims.figure_markdown(assessment, "fig3") == "No output has drawn fig3 yet."
+
+
+def test_update_page_rewrites_only_the_generated_blocks(outputs):
+    _, assessment = outputs
+    page = ("# title\n\n<!-- hiddpg claims: verdicts -->\nold table\n<!-- end -->\n\nprose "
+            "kept\n\n<!-- hiddpg claims: fig3 -->\nold\n<!-- end -->\n")
+    new = claims.update_page(page, assessment)
+    assert new == ("# title\n\n<!-- hiddpg claims: verdicts -->\n"
+                   f"{claims.markdown(assessment)}\n<!-- end -->\n\nprose kept\n\n"
+                   "<!-- hiddpg claims: fig3 -->\nNo output has drawn fig3 yet.\n<!-- end -->\n")
+    assert claims.update_page(new, assessment) == new
+    with pytest.raises(ValueError, match="generated block 'fig9' is not one of"):
+        claims.update_page("<!-- hiddpg claims: fig9 -->\n<!-- end -->", assessment)

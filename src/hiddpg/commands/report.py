@@ -4,7 +4,7 @@ read from their committed files, nothing trained.
 ::
 
     hiddpg report DIR [FIG ...]
-    hiddpg claims [DIR ...] [--bars] [--json] [--out FILE]
+    hiddpg claims [DIR ...] [--bars] [--figures] [--json] [--out FILE] [--update PAGE]
 
 ``report`` reads ``DIR/artifacts`` (written by ``hiddpg reproduce --out DIR``), never
 ``DIR/runs``: every figure whose artifacts are there (or the figures named) is drawn again
@@ -107,9 +107,16 @@ def build_claims_parser() -> argparse.ArgumentParser:
                         f"{' '.join(DEFAULT_DIRS)})")
     p.add_argument("--bars", action="store_true",
                    help="also print the claims: the paper's words and the bar of each")
+    p.add_argument("--figures", action="store_true",
+                   help="also print, per figure, each output's figure and the numbers behind "
+                        "it (docs/results.md's figure sections)")
     p.add_argument("--json", action="store_true",
                    help="print the verdicts, numbers and seeds as JSON instead")
     p.add_argument("--out", default=None, metavar="FILE", help="also write the output to FILE")
+    p.add_argument("--update", default=None, metavar="PAGE",
+                   help="rewrite the generated blocks of the markdown page PAGE (between "
+                        "'<!-- hiddpg claims: NAME -->' and '<!-- end -->'; NAME: verdicts, "
+                        "bars, fig3 ... fig8), e.g. docs/results.md")
     return p
 
 
@@ -137,15 +144,33 @@ def _assess(args: argparse.Namespace):
 
 
 def _print_claims(args: argparse.Namespace, assessment) -> int:
-    from hiddpg.experiments.claims import definitions_markdown, markdown
+    from hiddpg.experiments.claims import (
+        definitions_markdown,
+        figure_markdown,
+        markdown,
+        update_page,
+    )
 
     if args.json:
         text = json.dumps(assessment.to_json(), indent=2)
     else:
         text = markdown(assessment) + ("\n\n" + definitions_markdown() if args.bars else "")
+        if args.figures:
+            text += "".join(f"\n\n## {name}\n\n{figure_markdown(assessment, name)}"
+                            for name in FIGURES)
     print(text)
     if args.out:
         Path(args.out).write_text(text + "\n")
+    if args.update:
+        page = Path(args.update)
+        try:
+            before = page.read_text(encoding="utf-8")
+            after = update_page(before, assessment)
+        except (OSError, ValueError) as err:
+            return report_error(CLAIMS_PROG, UsageError(f"--update {page}: {err}"), code=2)
+        page.write_text(after, encoding="utf-8")
+        print(f"{CLAIMS_PROG}: {page}: "
+              f"{'updated' if after != before else 'already up to date'}", file=sys.stderr)
     return 0
 
 

@@ -11,12 +11,14 @@ docs/results.md holds them as generated from the outputs committed under ``resul
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 from hiddpg.experiments.claim_checks import CHECKS, RMS_LIMIT, Outcome, Output
+from hiddpg.experiments.report import load_sections
 from hiddpg.experiments.trajectory import GOAL_RADIUS
 from hiddpg.variants import same_as
 
@@ -151,3 +153,45 @@ def definitions_markdown() -> str:
     lines = ["| # | the paper says | its figure shows | reproduced when |", "|---|---|---|---|"]
     lines += [f"| {c.number} | {c.words} ({c.figure}) | {c.shows} | {c.bar} |" for c in CLAIMS]
     return "\n".join(lines)
+
+
+def figure_markdown(assessment: Assessment, name: str) -> str:
+    """The numbers behind figure ``name`` (``fig3``...) in every output of ``assessment`` that
+    has drawn it (an output read for another, e.g. ``paper+`` while it is ``paper``, once):
+    its label, the figure (linked from ``docs/``) and the section's text as ``hiddpg
+    reproduce`` wrote it. docs/results.md holds these under each figure's heading."""
+    blocks, seen = [], set()
+    for label, path in zip(assessment.outputs, assessment.paths, strict=True):
+        section = load_sections(Path(path)).get(name) if Path(path).is_dir() else None
+        if section is None or path in seen:
+            continue
+        seen.add(path)
+        pngs = [f"![{name}, {label}](../{path}/{f})\n\n" for f in section["figures"]
+                if f.endswith(".png")]
+        blocks.append(f"**{label}** (`{path}`):\n\n{''.join(pngs)}"
+                      f"{section['markdown'].strip()}")
+    return "\n\n".join(blocks) or f"No output has drawn {name} yet."
+
+
+MARKER = re.compile(r"<!-- hiddpg claims: (\w+) -->\n.*?<!-- end -->", re.DOTALL)
+"""A generated block of a page: ``<!-- hiddpg claims: NAME -->``, the block, ``<!-- end -->``
+(NAME: ``verdicts``, ``bars`` or a figure, ``fig3``...)."""
+
+
+def update_page(text: str, assessment: Assessment) -> str:
+    """``text`` (a markdown page, docs/results.md) with every generated block made again from
+    ``assessment``; :class:`ValueError` naming a block whose NAME is unknown."""
+    def block(match: re.Match) -> str:
+        name = match.group(1)
+        if name == "verdicts":
+            body = markdown(assessment)
+        elif name == "bars":
+            body = definitions_markdown()
+        elif re.fullmatch(r"fig[3-8]", name):
+            body = figure_markdown(assessment, name)
+        else:
+            raise ValueError(f"generated block {name!r} is not one of verdicts, bars, "
+                             "fig3 ... fig8")
+        return f"<!-- hiddpg claims: {name} -->\n{body}\n<!-- end -->"
+
+    return MARKER.sub(block, text)
