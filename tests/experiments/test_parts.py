@@ -157,3 +157,7 @@ def test_a_claim_on_fewer_seeds_than_planned_says_so(outputs):
         "**not reproduced**: 0/1; seeds 1 of 0-1 so far")
     assert Outcome("reproduced", "2/2", seeds=[0, 1], planned=2).cell() == (
         "**reproduced**: 2/2; seeds 0-1")
+    assert Outcome("reproduced", "PT1 1/1, PT2 2/2", seeds=[0, 1], fewest=1, planned=2).cell() == (
+        "**reproduced**: PT1 1/1, PT2 2/2; seeds 0-1, some runs on 1 of them so far")
+    assert Output(parted).seeds("hi-ddpg", ["PuckTrajectory2", "PuckTrajectory1"]) == {
+        "seeds": [0, 1], "fewest": 2}  # PuckTrajectory1 has no artifact there

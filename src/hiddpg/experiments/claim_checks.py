@@ -53,9 +53,12 @@ class Outcome:
     text: str = ""
     numbers: dict[str, Any] = field(default_factory=dict)
     seeds: list[int] = field(default_factory=list)
+    """Every seed of the runs the claim reads."""
+    fewest: int | None = None
+    """The fewest seeds one of those runs holds (``None``: ``len(seeds)``)."""
     planned: int | None = None
-    """The runs per method the output is meant to hold (seeds 0..planned-1); fewer seeds
-    (a run trained part by part, not yet whole) are named in the cell."""
+    """The runs per method the output is meant to hold (seeds 0..planned-1); runs with fewer
+    seeds (trained part by part, not yet whole) are named in the cell."""
 
     def cell(self) -> str:
         """The markdown table cell: verdict, numbers, seeds (of the planned ones, if fewer)."""
@@ -63,7 +66,10 @@ class Outcome:
             return "not run yet"
         head = f"**{self.verdict}**" if self.verdict != NOT_RUN else "not run yet"
         seeds = f"; seeds {seed_text(self.seeds)}" if self.seeds else ""
-        if self.seeds and self.planned and len(self.seeds) < self.planned:
+        fewest = len(self.seeds) if self.fewest is None else self.fewest
+        if self.seeds and fewest < len(self.seeds):
+            seeds += f", some runs on {fewest} of them so far"
+        elif self.seeds and self.planned and len(self.seeds) < self.planned:
             seeds += f" of 0-{self.planned - 1} so far"
         return f"{head}: {self.text}{seeds}"
 
@@ -79,15 +85,18 @@ class Output:
         self.planned = _planned(self.path)
         self._comparisons: dict[str, tuple[Any, list[int]]] = {}
 
-    def seeds(self, algo: str, tasks: Sequence[str]) -> list[int]:
-        """The seeds of ``algo``'s artifacts on ``tasks`` (those present), merged."""
-        found: set[int] = set()
+    def seeds(self, algo: str, tasks: Sequence[str]) -> dict[str, Any]:
+        """``seeds``: every seed of ``algo``'s artifacts on ``tasks`` (those present);
+        ``fewest``: the fewest one of them holds (:class:`Outcome`'s fields)."""
+        found: list[set[int]] = []
         for task in tasks:
             try:
-                found |= set(read_meta(self.path / ARTIFACTS_DIR / f"{algo}-{task}")["seeds"])
+                found.append(set(read_meta(self.path / ARTIFACTS_DIR / f"{algo}-{task}")
+                                 ["seeds"]))
             except ExperimentError:
                 continue
-        return sorted(found)
+        return {"seeds": sorted(set().union(*found)),
+                "fewest": min(map(len, found)) if found else None}
 
     def comparison(self, name: str) -> Any:
         """Fig. 7's or 8's :class:`~hiddpg.experiments.comparison.Comparison` recomputed from
@@ -96,19 +105,21 @@ class Output:
             self._comparisons[name] = self._compare(name)
         return self._comparisons[name][0]
 
-    def comparison_seeds(self, name: str) -> list[int]:
-        """The seeds of the runs in Fig. ``name``'s comparison."""
+    def comparison_seeds(self, name: str) -> dict[str, Any]:
+        """``seeds`` and ``fewest`` (as :meth:`seeds`) of the runs in Fig. ``name``'s
+        comparison."""
         self.comparison(name)
         return self._comparisons[name][1]
 
     def _compare(self, name: str) -> tuple[Any, list[int]]:
         section = self.sections.get(name)
         if section is None:
-            return None, []
+            return None, {"seeds": []}
         algo = {label: a for a, label in LABELS.items()}
         runs = {m: load_artifact(self.path / ARTIFACTS_DIR / f"{algo[m]}-{COMPARED_TASK[name]}")
                 for m in section["numbers"]["final"]}
-        seeds = sorted({int(s) for run in runs.values() for s in run.seeds})
+        seeds = {"seeds": sorted({int(s) for run in runs.values() for s in run.seeds}),
+                 "fewest": min(len(run.seeds) for run in runs.values())}
         return compare(runs), seeds
 
 
@@ -197,7 +208,7 @@ def _trajectory_counts(part: str) -> Callable[[Output], Outcome]:
         text = ", ".join(f"{SHORT[t]} {count_text(b[part], b['runs'])}"
                          for t, b in measured.items())
         return Outcome(_decide(passed, TRAJECTORY), text + _missing(passed, TRAJECTORY),
-                       numbers, out.seeds("hi-ddpg", list(measured)))
+                       numbers, **out.seeds("hi-ddpg", list(measured)))
 
     return measure
 
@@ -217,7 +228,7 @@ def _fits_ilqr(out: Output) -> Outcome:
     numbers = {t: {k: n[k] for k in ("rms_x", "rms_y", "ilqr_converged", "drawn_seed")}
                for t, n in measured.items()}
     return Outcome(_decide(passed, TRAJECTORY), text + _missing(passed, TRAJECTORY), numbers,
-                   out.seeds("hi-ddpg", list(measured)))
+                   **out.seeds("hi-ddpg", list(measured)))
 
 
 def _avoids_obstacle(out: Output) -> Outcome:
@@ -233,7 +244,7 @@ def _avoids_obstacle(out: Output) -> Outcome:
     numbers = {"success": ok, "runs": runs, "ci95": proportion_ci(ok, runs), "collisions": hit,
                "final_eval_return": ret, "switches": sw.tolist()}
     verdict = REPRODUCED if most_runs(ok, runs) else NOT_REPRODUCED
-    return Outcome(verdict, text, numbers, out.seeds("hi-ddpg", ["ArmObstacle"]))
+    return Outcome(verdict, text, numbers, **out.seeds("hi-ddpg", ["ArmObstacle"]))
 
 
 def stage_wins(comp: Any, a: str, b: str, late: bool) -> tuple[int, int, int]:
@@ -283,7 +294,7 @@ def _puck_similar(out: Output) -> Outcome:
             f"{beat}/{n}; last-stage IQM {_final(out, 'fig7', (hi, h, flat))}")
     numbers = {"stages": n, "hi_vs_h_differ": up + down, "hi_beats_ddpg": beat,
                "final": out.sections["fig7"]["numbers"]["final"]}
-    return Outcome(verdict, text, numbers, out.comparison_seeds("fig7"))
+    return Outcome(verdict, text, numbers, **out.comparison_seeds("fig7"))
 
 
 def _arm_beats_h(out: Output) -> Outcome:
@@ -299,13 +310,13 @@ def _arm_beats_h(out: Output) -> Outcome:
     numbers = {"stages": n, "hi_beats_h": up, "hi_beats_h_overall": everywhere,
                "final": out.sections["fig8"]["numbers"]["final"]}
     return Outcome(REPRODUCED if most_of(up, n) else NOT_REPRODUCED, text, numbers,
-                   out.comparison_seeds("fig8"))
+                   **out.comparison_seeds("fig8"))
 
 
 def _model_helps(out: Output) -> Outcome:
     """Claim 7: HI-DDPG > HI-DDPG-wo-model in most stages, on both obstacle tasks."""
     hi, wo = LABELS["hi-ddpg"], LABELS["hi-ddpg-wo-model"]
-    passed, parts, numbers, seeds, why = {}, [], {}, set(), []
+    passed, parts, numbers, seeds, fewest, why = {}, [], {}, set(), [], []
     for name, task in COMPARED_TASK.items():
         comp, reason = _compared(out, name, (hi, wo))
         if comp is None:
@@ -316,12 +327,13 @@ def _model_helps(out: Output) -> Outcome:
         final = out.sections[name]["numbers"]["final"]
         parts.append(f"{SHORT[task]} {up}/{n} (IQM {_iqm(final[hi])} vs {_iqm(final[wo])})")
         numbers[task] = {"stages": n, "hi_beats_wo_model": up, "final": final}
-        seeds |= set(out.comparison_seeds(name))
+        seeds |= set(out.comparison_seeds(name)["seeds"])
+        fewest.append(out.comparison_seeds(name)["fewest"])
     wanted = tuple(COMPARED_TASK.values())
     if not passed:
         return Outcome(NOT_RUN, "; ".join(why))
     text = (f"stages with {hi} > {wo}: " + ", ".join(parts) + _missing(passed, wanted))
-    return Outcome(_decide(passed, wanted), text, numbers, sorted(seeds))
+    return Outcome(_decide(passed, wanted), text, numbers, sorted(seeds), min(fewest))
 
 
 #: Claim number -> its check (:data:`hiddpg.experiments.claims.CLAIMS` states each bar).
