@@ -28,7 +28,7 @@ CPU, default thread settings unless said otherwise:
   with torch's default threads and once with one thread. ``learn(--sb3-warmup)``, then
   ``--repeats`` timed ``learn(--sb3-steps)``. TD3 is SB3's own: twin critics, the actor and the
   targets updated every second step (``policy_delay=2``). Skipped with a message when SB3 is
-  not installed.
+  not installed (``pip install -e ".[bench]"``).
 * **the environment alone**: ``gym.make(--env)``, ``env.step`` with uniformly random actions
   (drawn beforehand) in a Python loop, reset when an episode ends; and the ``SyncVectorEnv``
   of N environments that the host loop steps (N steps per ``step`` call, a seeded reset every

@@ -20,7 +20,7 @@ What is measured (all on CPU, default thread settings unless said otherwise):
   thread; the ratios divide by the stronger of the two (per wall-clock second and per
   CPU-second separately). A short ``learn`` warms up, then
   ``learn(--sb3-steps)`` is timed. Skipped with a message when SB3 is not installed
-  (``pip install torch stable-baselines3``; neither is a dependency of hiddpg).
+  (``pip install -e ".[bench]"``; not a dependency of hiddpg's own extras).
 
 Steps per second are given per wall-clock second (best and median of the repeats) and per
 CPU-second of this process (``time.process_time``, all threads), which stays meaningful when
