@@ -249,3 +249,18 @@ def test_update_page_rewrites_only_the_generated_blocks(outputs):
     assert claims.update_page(new, assessment) == new
     with pytest.raises(ValueError, match="generated block 'fig9' is not one of"):
         claims.update_page("<!-- hiddpg claims: fig9 -->\n<!-- end -->", assessment)
+
+
+def test_claims_update_rewrites_a_page_and_refuses_a_missing_one(outputs, tmp_path, capsys):
+    dirs, _ = outputs
+    page = tmp_path / "page.md"
+    page.write_text("intro\n<!-- hiddpg claims: fig3 -->\nstale\n<!-- end -->\n")
+    argv = [str(d) for d in dirs]
+    assert report_cmd.claims([*argv, "--figures", "--update", str(page)]) == 0
+    out = capsys.readouterr()
+    assert "## fig6\n\n**paper (paper scale)**" in out.out and "updated" in out.err
+    assert page.read_text() == ("intro\n<!-- hiddpg claims: fig3 -->\nNo output has drawn fig3 "
+                                "yet.\n<!-- end -->\n")
+    assert report_cmd.claims([*argv, "--update", str(tmp_path / "missing.md")]) == 2
+    err = capsys.readouterr().err
+    assert "--update" in err and "missing.md" in err and "Traceback" not in err
