@@ -99,3 +99,30 @@ def test_reference_not_history(text: str) -> None:
     assert not re.search(r"\bsessions?\b", text, re.IGNORECASE)
     assert not re.search(r"\b20\d\d-\d\d-\d\d\b", text)
     assert not re.search(r"\bwe tried\b", text, re.IGNORECASE)
+
+
+SRC = DOC.parents[1] / "src" / "hiddpg"
+#: where a ``[decision]`` tag of the code is explained: the deviations or the environments' tables
+TAG_DOCS = ("docs/deviations.md", "docs/environments.md")
+
+
+def tagged_modules() -> list[str]:
+    return sorted(
+        p.relative_to(SRC).as_posix()
+        for p in SRC.rglob("*.py")
+        if "[decision" in p.read_text(encoding="utf-8")
+    )
+
+
+def test_some_modules_carry_decision_tags() -> None:
+    assert len(tagged_modules()) >= 10  # the configs, presets, agents and environments
+
+
+@pytest.mark.parametrize("name", tagged_modules())
+def test_every_decision_tag_links_to_the_docs(name: str) -> None:
+    """A module that tags a value [decision] names the page that lists it, and the page exists."""
+    source = (SRC / name).read_text(encoding="utf-8")
+    linked = [doc for doc in TAG_DOCS if doc in source]
+    assert linked, f"{name} tags a [decision] but names none of {TAG_DOCS}"
+    for doc in linked:
+        assert (DOC.parents[1] / doc).is_file(), doc

@@ -18,6 +18,9 @@ The paper's equations (§II-A):
 
 Learning rates live in the optimiser states (``optax.inject_hyperparams``) so that they can be
 decayed inside ``jit`` with :meth:`DDPGBlock.set_learning_rates`.
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them.
 """
 
 from __future__ import annotations

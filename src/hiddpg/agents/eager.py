@@ -1,7 +1,10 @@
 """More high-level learning than Alg. 1's (:class:`~hiddpg.configs.EagerHighLevel`): under the
 seed ``vmap`` the masked high-level update is computed at every step anyway, so updating at
 every step gives about ``T`` times more updates for the same compute; the pre-training's random
-segments give ``D_H`` a broad sample of goals from the start [decision]."""
+segments give ``D_H`` a broad sample of goals from the start [decision].
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them."""
 
 from __future__ import annotations
 

@@ -25,6 +25,9 @@ and learns that they do not matter). One OU process, reset every episode, pertur
 skill's unit output. The first ``skill.learning_starts`` environment steps use uniformly random
 skills and unit outputs; nothing learns before. Learning rates of the skills decay by
 ``skill.lr_decay`` every ``skill.lr_decay_every`` episodes; the meta-critic's stays constant.
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them.
 """
 
 from __future__ import annotations

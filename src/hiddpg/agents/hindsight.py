@@ -24,6 +24,9 @@ written in time order per agent, so the transition ``k`` slots after slot ``i`` 
 later in the same episode if its ``episode`` matches; where it does not (the episode ended
 early, by a collision, or the slot was not written yet), the transition keeps offset 0: its own
 next state as the goal.
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them.
 """
 
 from __future__ import annotations

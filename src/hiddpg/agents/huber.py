@@ -4,6 +4,9 @@ Squared within ``δ`` of the target and linear beyond, it lets rare large TD err
 collisions, reward -100) pull a critic's values less than the many small ones near the target;
 a large ``δ`` first and a small one later (``late_delta``) keeps the collisions' cost while the
 detour is learned, then fits the small returns near the target precisely [decision].
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them.
 """
 
 from __future__ import annotations

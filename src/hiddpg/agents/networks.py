@@ -15,6 +15,9 @@ Initialisation [decision, from the DDPG paper (Lillicrap et al. 2016, §7)]:
   initial policy outputs and Q-values are close to zero.
 
 Layers are named ``hidden_0, hidden_1, ...`` and ``out`` so that tests and tools can find them.
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them.
 """
 
 from __future__ import annotations

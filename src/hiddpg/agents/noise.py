@@ -14,6 +14,9 @@ API (pure, ``jit``/``vmap``-safe)::
 
 ``NoiseConfig.final_sigma`` / ``decay_episodes`` make σ fall linearly with the agent's episode
 count (:func:`scale`); by default σ is constant.
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them.
 """
 
 from __future__ import annotations

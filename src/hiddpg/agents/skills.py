@@ -22,6 +22,9 @@ and ``vmap``-ped, and a skill with fewer outputs ignores the extra ones.
 
 A task declares its skills in the task registry (``skills=`` of :func:`hiddpg.register_task`, a
 factory ``(env, config) -> SkillPatterns``); :func:`task_skills` builds them for an environment.
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them.
 """
 
 from __future__ import annotations

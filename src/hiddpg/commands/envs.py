@@ -14,6 +14,9 @@ Parsed with tyro (``subcommand_cli_from_dict``); errors in the task or params pr
 and exit with code 2. ``--out`` must name a file ending in ``.gif`` and ``--still`` one ending
 in ``.png``, neither an existing directory; their missing parent directories are created. They
 are checked before the rollout runs.
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them.
 """
 
 from __future__ import annotations

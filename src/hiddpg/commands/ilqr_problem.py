@@ -1,5 +1,8 @@
 """The iLQR problem of an ``hiddpg ilqr`` command line: the task, goals, switch times, horizon
-and action weight, parsed, defaulted and validated (:func:`resolve`)."""
+and action weight, parsed, defaulted and validated (:func:`resolve`).
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them."""
 
 from __future__ import annotations
 

@@ -18,7 +18,7 @@ figure and the report name it. ``all`` draws the puck figures before the arm's (
 first); ``--dry-run`` lists the runs it would train, resume or reuse and the environment steps
 left. ``--part 0-4`` trains only those seeds of each run, as a run of their own whose artifact
 (``DIR/parts/``, committed like the artifacts) is merged with the other parts into the run's
-artifact (:mod:`hiddpg.experiments.parts`): a run longer than one sitting is trained part by
+artifact (:mod:`hiddpg.experiments.parts`): a run too long to train in one go is trained part by
 part, on any machine, and the figures are drawn from the seeds merged so far.
 """
 

@@ -4,6 +4,9 @@ Every default is the spec's (``shared/spec/algorithms.md``); tags in the field c
 where a value comes from: [paper], [source] or [decision]. Configs validate on construction and
 name the field, the bad value and what is allowed. Presets (``paper``, ``quick``) live in
 :mod:`hiddpg.presets`; ``--set key=value`` overrides are applied by :func:`apply_overrides`.
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them.
 """
 
 from hiddpg.configs.choice import CHOICES, ActorChoice, CriticDurations, HoldChoice

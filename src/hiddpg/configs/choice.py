@@ -1,7 +1,10 @@
 """How HI-DDPG's high level chooses its goal and duration at a switch: the paper's actor, or one
 of our two choices that let the critic decide. ``HIDDPGConfig.choice`` holds one of them; the
 implementations are :mod:`hiddpg.agents.choice`, :mod:`hiddpg.agents.hold` and
-:mod:`hiddpg.agents.durations`."""
+:mod:`hiddpg.agents.durations`.
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them."""
 
 from __future__ import annotations
 

@@ -1,5 +1,8 @@
 """The configs of one DDPG actor-critic: its exploration noise (:class:`NoiseConfig`), flat
-DDPG (:class:`DDPGConfig`) and one level of HI-DDPG (:class:`LevelConfig`)."""
+DDPG (:class:`DDPGConfig`) and one level of HI-DDPG (:class:`LevelConfig`).
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them."""
 
 from __future__ import annotations
 

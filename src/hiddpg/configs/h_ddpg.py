@@ -1,4 +1,7 @@
-"""The config of h-DDPG, the paper's hierarchical baseline (spec §4)."""
+"""The config of h-DDPG, the paper's hierarchical baseline (spec §4).
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them."""
 
 from __future__ import annotations
 

@@ -1,5 +1,8 @@
 """The config of HI-DDPG (spec §2-3): its two levels, the hierarchy's paper values, and the
-named additions, each off (``None``, or the paper's :class:`ActorChoice`) unless given."""
+named additions, each off (``None``, or the paper's :class:`ActorChoice`) unless given.
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them."""
 
 from __future__ import annotations
 

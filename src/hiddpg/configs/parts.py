@@ -1,6 +1,9 @@
 """Configs of the named additions to the paper's HI-DDPG. Each one is off (``None``) in the
 paper's configuration and switched on by giving its config; each has one module under
-:mod:`hiddpg.agents` and one seam where it plugs in."""
+:mod:`hiddpg.agents` and one seam where it plugs in.
+
+[decision] marks a value of ours where the paper is silent; docs/deviations.md (each with the
+paper's value and why) lists them."""
 
 from __future__ import annotations
 

@@ -6,6 +6,9 @@ elbow angle relative to the upper arm (0 = straight), in radians and rad/s. No g
 
 Everything here is a pure function of ``(x, activation, params)``: ``jit``, ``vmap`` (over states
 or over params, e.g. the three force fields via :func:`stack_params`) and ``jax.jacrev`` work.
+
+[decision] marks a value of ours where the paper is silent; docs/environments.md (its tables of
+constants, each tagged) lists them.
 """
 
 from __future__ import annotations

@@ -8,6 +8,9 @@ steps of 0.01 s). The reward is ``-|hand - hand_target|_2`` (metres) after the a
 
 Also here: :class:`DetourScript` / :func:`detour_action`, the scripted two-stroke movement of the
 paper's Fig. 6B (via ``(60°, 130°)`` to the target ``(90°, 60°)``), and :func:`scripted_rollout`.
+
+[decision] marks a value of ours where the paper is silent; docs/environments.md (its tables of
+constants, each tagged) lists them.
 """
 
 from __future__ import annotations
