@@ -168,3 +168,36 @@ def test_labels_name_runs_in_the_table_the_export_and_the_curves(tmp_path, capsy
     assert "--label 'c': no run directory has this name; the runs are ['a', 'b']" in err[0]
     assert "--label 'a': expected NAME=LABEL" in err[1]
     assert "is an exported study; it keeps the labels it was exported with" in err[2]
+
+
+def test_runs_trained_later_are_added_to_an_exported_study(tmp_path, capsys):
+    """An export plus new run directories: the export's records, then the new runs' (a label
+    the export has is replaced); the table equals the one of all runs read together."""
+    for name, shift in (("a", 0.0), ("b", -100.0), ("c", -50.0)):
+        write_run(tmp_path / "runs" / name, shift)
+    (tmp_path / "runs" / "sweep.json").write_text(json.dumps({"runs": {
+        "a": {"preset": "paper", "sets": []},
+        "b": {"preset": "paper", "sets": ["agent.high.tau=0.01"]},
+        "c": {"preset": "paper", "sets": ["agent.low.tau=0.01"]}}}))
+    together = diagnosis.markdown(diagnosis.summarize([str(tmp_path / "runs")], window=10))
+    first = tmp_path / "first.json"
+    diagnosis.main([str(tmp_path / "runs" / "a"), str(tmp_path / "runs" / "b"), "--window", "10",
+                    "--export", str(first)])
+    later = tmp_path / "later.json"
+    diagnosis.main([str(first), str(tmp_path / "runs" / "c"), "--window", "10",
+                    "--export", str(later)])
+    assert diagnosis.markdown(diagnosis.summarize([str(later)])) == together
+    assert [r["run"] for r in json.loads(later.read_text())["runs"]] == [
+        "paper", "agent.high.tau=0.01", "agent.low.tau=0.01"]
+    # b retrained (here: shifted) replaces b's record instead of adding a second one
+    write_run(tmp_path / "again" / "b", -90.0)
+    (tmp_path / "again" / "sweep.json").write_text(json.dumps({"runs": {
+        "b": {"preset": "paper", "sets": ["agent.high.tau=0.01"]}}}))
+    rows = diagnosis.summarize([str(later), str(tmp_path / "again")], window=10)
+    assert [r["run"] for r in rows] == ["paper", "agent.low.tau=0.01", "agent.high.tau=0.01"]
+    assert rows[2]["eval_env_return"][0] == pytest.approx(-49.5)
+    # an export cut elsewhere is not mixed with runs cut at another episode
+    capsys.readouterr()
+    assert diagnosis.main([str(later), str(tmp_path / "again"), "--at", "20"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and "exported with at=None, not 20" in err[0]

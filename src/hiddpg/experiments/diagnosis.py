@@ -18,9 +18,10 @@ committed under ``results/``) gives the same table and curves without the run di
   the high-level return the episodes got) and both levels' ``dq_da_norm`` (the action
   gradient's mean norm): training, last ``window`` episodes, where the run logged them.
 
-``python -m hiddpg.experiments.diagnosis DIR|EXPORT.json [--at EPISODE] [--plot FILE.png]
+``python -m hiddpg.experiments.diagnosis DIR|EXPORT.json ... [--at EPISODE] [--plot FILE.png]
 [--export FILE.json] [--base LABEL]`` prints the table (:func:`markdown`) and draws the
-evaluation curves (:func:`plot_curves`).
+evaluation curves (:func:`plot_curves`); given an exported study and run directories, it
+adds the runs to the study's records (``--export`` the same file to keep them).
 """
 
 from __future__ import annotations
@@ -91,16 +92,31 @@ def record(data: RunData, window: int = 200, label: str | None = None) -> dict[s
 
 def collect(paths: list[str] | tuple[str, ...], window: int = 200,
             at: int | None = None, labels: dict[str, str] | None = None) -> dict[str, Any]:
-    """The study's records: one per run directory among ``paths`` (directories are
-    searched), or those of an exported study (a ``.json`` file). ``labels``: run directory
+    """The study's records: those of every exported study among ``paths`` (``.json`` files,
+    as written), then one per run directory (directories are searched), cut at ``at``. An
+    exported study added to must have been cut at the same ``at`` and averaged over the same
+    ``window``; a run directory whose label an export already has replaces that record, so a
+    study can be added to from runs trained at different times. ``labels``: run directory
     name -> its label in the table (instead of its changes); a name no run has is an error."""
-    if len(paths) == 1 and str(paths[0]).endswith(".json"):
+    exports = [p for p in paths if str(p).endswith(".json")]
+    dirs = [p for p in paths if not str(p).endswith(".json")]
+    if exports and not dirs and len(exports) == 1:
         if labels:
-            raise ValueError(f"--label: {paths[0]} is an exported study; it keeps the labels "
+            raise ValueError(f"--label: {exports[0]} is an exported study; it keeps the labels "
                              "it was exported with")
-        return json.loads(Path(paths[0]).read_text())
+        return json.loads(Path(exports[0]).read_text())
+    study: dict[str, Any] = {"at": at, "window": window, "last_evals": LAST_EVALS, "runs": []}
+    for path in exports:
+        old = json.loads(Path(path).read_text())
+        for key in ("at", "window"):
+            if old.get(key) != study[key]:
+                raise ValueError(f"{path}: exported with {key}={old.get(key)}, not {study[key]} "
+                                 f"as asked (--{key}); add to it with the same --{key}")
+        if "base" in old:
+            study.setdefault("base", old["base"])
+        study["runs"].extend(old["runs"])
     labels, runs = labels or {}, []
-    found = discover_runs(paths)
+    found = discover_runs(dirs) if dirs else []
     unknown = sorted(set(labels) - {p.name for p in found})
     if unknown:
         raise ValueError(f"--label {unknown[0]!r}: no run directory has this name; the runs "
@@ -112,7 +128,9 @@ def collect(paths: list[str] | tuple[str, ...], window: int = 200,
             print(f"skipped: {err}", file=sys.stderr)
             continue
         runs.append(record(cut(data, at), window, labels.get(path.name)))
-    return {"at": at, "window": window, "last_evals": LAST_EVALS, "runs": runs}
+    fresh = {r["run"] for r in runs}
+    study["runs"] = [r for r in study["runs"] if r["run"] not in fresh] + runs
+    return study
 
 
 def welch_interval(a: np.ndarray, b: np.ndarray, level: float = 0.95
@@ -241,7 +259,7 @@ def main(argv: list[str] | None = None) -> int:
 def _main(argv: list[str] | None) -> None:
     p = argparse.ArgumentParser(prog="python -m hiddpg.experiments.diagnosis",
                                 description="A one-change-at-a-time study as a table.")
-    p.add_argument("dirs", nargs="+", help="sweep or run directories, or one exported .json")
+    p.add_argument("dirs", nargs="+", help="sweep or run directories and exported .json studies (added together)")
     p.add_argument("--at", type=int, default=None, help="cut every run at this episode")
     p.add_argument("--window", type=int, default=200, help="training episodes averaged")
     p.add_argument("--plot", type=Path, default=None, help="also draw the curves here")
