@@ -259,7 +259,8 @@ def main(argv: list[str] | None = None) -> int:
 def _main(argv: list[str] | None) -> None:
     p = argparse.ArgumentParser(prog="python -m hiddpg.experiments.diagnosis",
                                 description="A one-change-at-a-time study as a table.")
-    p.add_argument("dirs", nargs="+", help="sweep or run directories and exported .json studies (added together)")
+    p.add_argument("dirs", nargs="+",
+                   help="sweep or run directories and exported .json studies (added together)")
     p.add_argument("--at", type=int, default=None, help="cut every run at this episode")
     p.add_argument("--window", type=int, default=200, help="training episodes averaged")
     p.add_argument("--plot", type=Path, default=None, help="also draw the curves here")
