@@ -68,3 +68,12 @@ def test_the_page_is_a_short_reference(text):
 def test_every_linked_image_is_committed(text):
     for target in re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text):
         assert (DOC.parent / target).is_file(), target
+
+
+def test_the_readme_says_what_the_results_page_says(monkeypatch):
+    """The README's list of which claims hold is the generated one, from the same outputs."""
+    monkeypatch.chdir(ROOT)
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = claims.summary_markdown(claims.assess(claims.DEFAULT_DIRS))
+    assert f"<!-- hiddpg claims: summary -->\n{block}\n<!-- end -->" in readme, (
+        "the README's list of claims is stale; run `hiddpg claims --update README.md`")

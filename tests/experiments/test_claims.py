@@ -264,3 +264,30 @@ def test_claims_update_rewrites_a_page_and_refuses_a_missing_one(outputs, tmp_pa
     assert report_cmd.claims([*argv, "--update", str(tmp_path / "missing.md")]) == 2
     err = capsys.readouterr().err
     assert "--update" in err and "missing.md" in err and "Traceback" not in err
+
+
+def test_the_summary_groups_each_output_s_claims_by_verdict(outputs):
+    """The README's short list: per output, the claims by verdict (from the verdicts above)."""
+    _, assessment = outputs
+    assert claims.summary_markdown(assessment).splitlines() == [
+        "- `paper (paper scale)`: claims reproduced: 2-6; not reproduced: 1, 7; not run yet: "
+        "none.",
+        "- `quick (quick scale)`: claims reproduced: none; not reproduced: 2, 4; not run yet: "
+        "1, 3, 5-7.",
+        "- `extended (paper scale)`: claims reproduced: none; not reproduced: none; not run "
+        "yet: 1-7.",
+        "- `paper+ (= paper (paper scale): no change)`: claims reproduced: 2-6; not "
+        "reproduced: 1, 7; not run yet: none.",
+    ]
+    # a verdict on fewer seeds than the output plans is flagged
+    outcome = assessment.outcomes[2][0]
+    saved = outcome.planned
+    try:
+        outcome.planned = 20
+        assert claims.summary_markdown(assessment).splitlines()[0].endswith(
+            "; some verdicts on part of the planned seeds so far.")
+    finally:
+        outcome.planned = saved
+    page = "<!-- hiddpg claims: summary -->\nold\n<!-- end -->"
+    assert claims.update_page(page, assessment) == (
+        f"<!-- hiddpg claims: summary -->\n{claims.summary_markdown(assessment)}\n<!-- end -->")

@@ -17,7 +17,15 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from hiddpg.experiments.claim_checks import CHECKS, RMS_LIMIT, Outcome, Output
+from hiddpg.experiments.claim_checks import (
+    CHECKS,
+    NOT_REPRODUCED,
+    NOT_RUN,
+    REPRODUCED,
+    RMS_LIMIT,
+    Outcome,
+    Output,
+)
 from hiddpg.experiments.report import load_sections
 from hiddpg.experiments.trajectory import GOAL_RADIUS
 from hiddpg.variants import same_as
@@ -173,9 +181,40 @@ def figure_markdown(assessment: Assessment, name: str) -> str:
     return "\n\n".join(blocks) or f"No output has drawn {name} yet."
 
 
+def _numbers(numbers: list[int]) -> str:
+    """``[1, 2, 3, 5]`` as ``1-3, 5``."""
+    spans: list[list[int]] = []
+    for n in numbers:
+        if spans and n == spans[-1][1] + 1:
+            spans[-1][1] = n
+        else:
+            spans.append([n, n])
+    return ", ".join(f"{a}" if a == b else f"{a}-{b}" for a, b in spans)
+
+
+def summary_markdown(assessment: Assessment) -> str:
+    """One line per output: which claims it reproduces, which not, which are not run yet, and
+    whether a verdict rests on fewer seeds than the output is meant to hold. The README holds
+    this block, so that what it says of the results is what docs/results.md says."""
+    lines = []
+    for k, label in enumerate(assessment.outputs):
+        rows = {c.number: assessment.outcomes[c.number][k] for c in CLAIMS}
+        parts = []
+        for verdict, name in ((REPRODUCED, "reproduced"), (NOT_REPRODUCED, "not reproduced"),
+                              (NOT_RUN, "not run yet")):
+            numbers = [n for n, r in rows.items() if r.verdict == verdict]
+            parts.append(f"{name}: {_numbers(numbers) if numbers else 'none'}")
+        partial = any(r.verdict != NOT_RUN and r.seeds and (
+            (r.fewest is not None and r.fewest < len(r.seeds))
+            or (r.planned and len(r.seeds) < r.planned)) for r in rows.values())
+        tail = "; some verdicts on part of the planned seeds so far" if partial else ""
+        lines.append(f"- `{label}`: claims {'; '.join(parts)}{tail}.")
+    return "\n".join(lines)
+
+
 MARKER = re.compile(r"<!-- hiddpg claims: (\w+) -->\n.*?<!-- end -->", re.DOTALL)
 """A generated block of a page: ``<!-- hiddpg claims: NAME -->``, the block, ``<!-- end -->``
-(NAME: ``verdicts``, ``bars`` or a figure, ``fig3``...)."""
+(NAME: ``verdicts``, ``bars``, ``summary`` or a figure, ``fig3``...)."""
 
 
 def update_page(text: str, assessment: Assessment) -> str:
@@ -187,11 +226,13 @@ def update_page(text: str, assessment: Assessment) -> str:
             body = markdown(assessment)
         elif name == "bars":
             body = definitions_markdown()
+        elif name == "summary":
+            body = summary_markdown(assessment)
         elif re.fullmatch(r"fig[3-8]", name):
             body = figure_markdown(assessment, name)
         else:
             raise ValueError(f"generated block {name!r} is not one of verdicts, bars, "
-                             "fig3 ... fig8")
+                             "summary, fig3 ... fig8")
         return f"<!-- hiddpg claims: {name} -->\n{body}\n<!-- end -->"
 
     return MARKER.sub(block, text)
