@@ -116,7 +116,7 @@ def build_claims_parser() -> argparse.ArgumentParser:
     p.add_argument("--update", default=None, metavar="PAGE",
                    help="rewrite the generated blocks of the markdown page PAGE (between "
                         "'<!-- hiddpg claims: NAME -->' and '<!-- end -->'; NAME: verdicts, "
-                        "bars, fig3 ... fig8), e.g. docs/results.md")
+                        "bars, summary, fig3 ... fig8), e.g. docs/results.md or README.md")
     return p
 
 
