@@ -47,3 +47,47 @@ def test_a_run_on_disk_is_planned_as_a_resume(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "variant quick" in text and "nothing is trained" in text
     assert not out.exists()  # a dry run writes nothing
+
+
+def _meta(ctx, algo, task, seeds, episodes, wall_time, status="finished"):
+    import json
+
+    from hiddpg.experiments.artifacts import ARTIFACT_FORMAT, META_FILE
+
+    path = ctx.artifact_path(algo, task)
+    path.mkdir(parents=True)
+    (path / META_FILE).write_text(json.dumps({
+        "format": ARTIFACT_FORMAT, "seeds": seeds, "episodes": episodes,
+        "wall_time": wall_time, "status": status}))
+
+
+def test_what_is_left_is_counted_from_the_artifacts_at_the_output_s_own_rate(tmp_path):
+    """PT2 whole, PT1 seeds 0-4 (3600 s for 5 x 3000 x 30 steps: 125 steps/s), PT3 unfinished:
+    the rest is what the other seeds take at that rate; DDPG, with no run of its own, at the
+    rate of all runs (here the same 125 steps/s)."""
+    from hiddpg.experiments.schedule import left, left_table
+
+    ctx = Context(tmp_path, scale="paper", variant="paper")
+    _meta(ctx, "hi-ddpg", "PuckTrajectory2", list(range(15)), 3000, 3 * 3600.0)
+    _meta(ctx, "hi-ddpg", "PuckTrajectory1", list(range(5)), 3000, 3600.0)
+    _meta(ctx, "hi-ddpg", "PuckTrajectory3", list(range(15)), 1000, 900.0, status="running")
+    runs = {(r.algo, r.task): r for r in left(ctx)}
+    assert len(runs) == 11
+    assert runs["hi-ddpg", "PuckTrajectory2"].steps_left == 0
+    pt1 = runs["hi-ddpg", "PuckTrajectory1"]
+    assert pt1.held == tuple(range(5)) and pt1.steps_left == 10 * 3000 * 30
+    assert pt1.hours == pytest.approx(2.0) and pt1.rate_of == "hi-ddpg"
+    pt3 = runs["hi-ddpg", "PuckTrajectory3"]  # an unfinished artifact holds nothing yet
+    assert pt3.held == () and pt3.hours == pytest.approx(3.0)
+    ddpg = runs["ddpg", "ArmObstacle"]
+    assert ddpg.rate_of == "all" and ddpg.hours == pytest.approx(15 * 3000 * 75 / 125 / 3600)
+    table = left_table(list(runs.values())).splitlines()
+    assert "| hi-ddpg on PuckTrajectory1 | 15 | 0-4 | 900,000 | 2.0 |" in table
+    assert table[-1].startswith(f"| total | | | {sum(r.steps_left for r in runs.values()):,} |")
+    # an output with nothing finished has no rate; one with everything finished has nothing left
+    fresh = left(Context(tmp_path / "fresh", scale="paper", variant="paper"))
+    assert all(r.hours is None for r in fresh) and left_table(fresh).splitlines()[-1].endswith(
+        " | - |")
+    done = [r.__class__(r.algo, r.task, r.planned, tuple(range(15)), 0, 0.0, r.algo)
+            for r in fresh]
+    assert left_table(done) == "Nothing: every run holds the seeds it is meant to."

@@ -82,8 +82,12 @@ def test_report_redraws_a_merged_output_from_its_artifacts(outputs, tmp_path):
     shutil.copytree(parted / "artifacts", out / "artifacts")
     assert report_cmd.main([str(out), "fig3"]) == 0
     assert _numbers(out) == _numbers(whole)
-    assert "| hi-ddpg-PuckTrajectory2 | 0-1 | 20 | finished | seeds-0, seeds-1 |" in (
-        out / "report.md").read_text()
+    report = (out / "report.md").read_text()
+    assert "| hi-ddpg-PuckTrajectory2 | 0-1 | 20 | finished | seeds-0, seeds-1 |" in report
+    # what is left: nothing of this run; the puck's (never run) at this run's rate
+    left = report.split("## Still to train")[1]
+    assert "| hi-ddpg on PuckTrajectory2 | 2 | 0-1 | 0 | 0 |" in left
+    assert "| hi-ddpg on PuckObstacle | 2 | - | 2,000 | < 0.1 |" in left
 
 
 def test_parts_that_do_not_fit_are_refused_before_training(outputs, capsys):

@@ -21,6 +21,7 @@ import numpy as np
 from hiddpg.experiments.artifacts import META_FILE
 from hiddpg.experiments.budgets import BUDGETS, budget_table, variant_table
 from hiddpg.experiments.common import Context
+from hiddpg.experiments.schedule import left, left_table
 from hiddpg.runs import PROGRESS_FILE, atomic_write
 
 ORDER = ("fig3", "fig4", "fig5", "fig6", "fig7", "fig8")
@@ -101,6 +102,13 @@ def runs_table(out: Path) -> list[str]:
     return lines
 
 
+LEFT_NOTE = ("What every figure still needs: per run, the seeds its artifact holds finished, the "
+             "environment steps the others take (seeds x episodes x horizon: an upper bound where "
+             "episodes end early) and the hours they would take at this output's measured rate "
+             "(its finished runs of the same algorithm, or of all algorithms where that one has "
+             "none yet; on this output's machine).")
+
+
 def write_report(ctx: Context, invocation_s: float | None = None) -> Path:
     """Rebuild ``report.md`` from the stored sections."""
     sections = load_sections(ctx.out)
@@ -115,7 +123,8 @@ def write_report(ctx: Context, invocation_s: float | None = None) -> Path:
              f"{seeds} seeds per method (seeds 0-{seeds - 1}); the run (seed) is the unit of "
              "every statistic; the seeds each run holds so far are in the table of runs.", "",
              "## Budgets", "", budget_table(), "", "## Variants", "", variant_table(), "",
-             "## Runs", "", *runs_table(ctx.out), ""]
+             "## Runs", "", *runs_table(ctx.out), "",
+             "## Still to train", "", LEFT_NOTE, "", left_table(left(ctx)), ""]
     if ctx.episodes or ctx.sets or ctx.seeds:
         lines += [f"Overrides of this output: seeds={ctx.seeds}, episodes={ctx.episodes}, "
                   f"set={list(ctx.sets)}.", ""]

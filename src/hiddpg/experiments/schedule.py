@@ -88,3 +88,83 @@ def plan_table(runs: list[PlannedRun]) -> str:
                     f"{r.episodes:,} | {disk} | {r.steps_left:,} |")
     rows.append(f"| total | | | | | {sum(r.steps_left for r in runs):,} |")
     return "\n".join(rows)
+
+
+@dataclass(frozen=True)
+class LeftRun:
+    """What a run of an output still needs: the seeds it is meant to hold, those its artifact
+    holds finished, the environment steps the rest take and the time they would take."""
+
+    algo: str
+    task: str
+    planned: int
+    held: tuple[int, ...]
+    steps_left: int
+    hours: float | None
+    """At the rate of the output's finished runs of ``algo`` (``None``: none finished yet)."""
+    rate_of: str
+    """Whose rate ``hours`` uses: ``algo``, ``"all"`` (every finished run's) or ``""``."""
+
+
+def left(ctx: Context) -> list[LeftRun]:
+    """Every run of every figure (:data:`CHEAP_FIRST`) with the seeds its artifact holds
+    finished and what the others cost. A run's steps are ``seeds x episodes x horizon`` (an
+    upper bound where episodes end early); its rate is the output's own, measured: the steps of
+    its finished artifacts of the same algorithm over their training time (all algorithms'
+    where that one has none yet)."""
+    from hiddpg.envs.registry import make
+    from hiddpg.experiments.artifacts import read_meta
+
+    order: list[tuple[str, str]] = []
+    for figure in CHEAP_FIRST:
+        order += [key for key in figure_runs(ctx, figure) if key not in order]
+    rows, measured = [], {}
+    for algo, task in order:
+        config = ctx.config(algo, task)
+        env, params = make(task)
+        per_seed = config.episodes * env.max_steps(params)
+        artifact, held = ctx.artifact_path(algo, task), ()
+        if artifact.is_dir():
+            meta = read_meta(artifact)
+            if meta.get("status") == "finished" and meta.get("episodes", 0) >= config.episodes:
+                held = tuple(meta["seeds"])
+                steps, seconds = measured.get(algo, (0, 0.0))
+                measured[algo] = (steps + per_seed * len(held),
+                                  seconds + float(meta.get("wall_time") or 0.0))
+        planned = ctx.seeds or ctx.budget(task).seeds
+        rows.append((algo, task, planned, held, per_seed * len(set(range(planned)) - set(held))))
+    everything = (sum(s for s, _ in measured.values()), sum(t for _, t in measured.values()))
+    out = []
+    for algo, task, planned, held, steps in rows:
+        steps_done, seconds = measured.get(algo, (0, 0.0))
+        rate_of = algo
+        if not seconds:
+            (steps_done, seconds), rate_of = everything, "all"
+        hours = steps / (steps_done / seconds) / 3600 if seconds and steps_done else None
+        out.append(LeftRun(algo, task, planned, held, steps, hours,
+                           rate_of if hours is not None else ""))
+    return out
+
+
+def left_table(runs: list[LeftRun]) -> str:
+    """:func:`left` as a markdown table with a total, or a line saying nothing is left."""
+    from hiddpg.runner import seed_ranges
+
+    if not any(r.steps_left for r in runs):
+        return "Nothing: every run holds the seeds it is meant to."
+    rows = ["| run | seeds planned | seeds held, finished | environment steps left | hours, "
+            "at this output's rate |", "|---|---:|---|---:|---:|"]
+    for r in runs:
+        held = ", ".join(seed_ranges(list(r.held))) if r.held else "-"
+        hours = ("0" if not r.steps_left else "-" if r.hours is None else
+                 _hours(r.hours) + (" (rate of all runs)" if r.rate_of == "all" else ""))
+        rows.append(f"| {r.algo} on {r.task} | {r.planned} | {held} | {r.steps_left:,} | "
+                    f"{hours} |")
+    known = [r.hours for r in runs if r.hours is not None]
+    total = _hours(sum(known)) if len(known) == len(runs) else "-"
+    rows.append(f"| total | | | {sum(r.steps_left for r in runs):,} | {total} |")
+    return "\n".join(rows)
+
+
+def _hours(h: float) -> str:
+    return f"{h:.1f}" if h >= 0.1 else "< 0.1"
