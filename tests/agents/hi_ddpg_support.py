@@ -367,6 +367,12 @@ def check_trajectory(agent: HIDDPG, traj: dict, metrics: dict, horizon: int) -> 
     np.testing.assert_allclose(m["env_return"], traj["reward"].sum(), rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(m["return"], m["env_return"] - c.switch_cost * m["switches"],
                                rtol=1e-5, atol=1e-5)
+    # the high level's discounted return: Σ_k γ_H^k f_k over the segments
+    f = [traj["reward"][a:a + n].sum() - c.switch_cost * (i > 0)
+         for i, (a, n) in enumerate(zip(starts, lengths, strict=True))]
+    np.testing.assert_allclose(m["high_return_discounted"],
+                               sum(c.high.gamma ** i * fi for i, fi in enumerate(f)),
+                               rtol=1e-5, atol=1e-5)
     return lengths if not cut else lengths + ["cut"]
 
 

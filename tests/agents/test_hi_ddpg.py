@@ -66,6 +66,22 @@ def test_evaluate_is_masked_after_termination():
     check_trajectory(run.agent, traj, metrics, HORIZON)
 
 
+def test_evaluate_reports_the_high_critics_value_of_its_first_choice():
+    run = base_run()
+    agent, choice = run.agent, run.agent.choice
+    evaluate = jax.jit(agent.evaluate)
+    values = []
+    for i, state in enumerate([run.final, _random_high_actor(run.final, 1)]):
+        key = jax.random.PRNGKey(i)
+        metrics, traj = evaluate(key, state, run.params)
+        hobs = choice.inputs(traj["obs"][0], jax.numpy.asarray(HORIZON), HORIZON)
+        action = choice.propose(state.high, hobs, jax.numpy.asarray(HORIZON))
+        q = choice.q(state.high, hobs, action)
+        np.testing.assert_allclose(metrics["high_q_start"], q, rtol=1e-5, atol=1e-6)
+        values.append(float(q))
+    assert values[0] != values[1]
+
+
 # -- (a), (b), (c) training episodes -----------------------------------------------------------
 def test_train_segments_buffers_and_returns():
     run = base_run()

@@ -201,3 +201,21 @@ def test_runs_trained_later_are_added_to_an_exported_study(tmp_path, capsys):
     assert diagnosis.main([str(later), str(tmp_path / "again"), "--at", "20"]) == 2
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and "exported with at=None, not 20" in err[0]
+
+
+def test_the_critic_error_is_its_start_value_minus_the_return_it_estimates(tmp_path):
+    run = Run.create(tmp_path / "r", make_config("hi-ddpg", "PuckTrajectory2", "paper"), SEEDS)
+    episodes = np.tile(np.arange(1, 41), (2, 1))
+    train = {"episode": episodes, "env_return": np.zeros((2, 40)), "return": np.zeros((2, 40)),
+             "length": np.full((2, 40), 30), "switches": np.ones((2, 40))}
+    evals = {"episode": np.array([[20, 40], [20, 40]]), "env_return": np.zeros((2, 2)),
+             "switches": np.ones((2, 2)),
+             "high_q_start": np.array([[-10.0, -20.0], [-30.0, -30.0]]),
+             "high_return_discounted": np.array([[-50.0, -40.0], [-30.0, -36.0]])}
+    run.append_metrics(train, evals)
+    run.close()
+    (r,) = diagnosis.summarize([str(tmp_path)], window=10)
+    # per seed, the mean over its evaluations of q - return: (40 + 20) / 2 = 30 and 3
+    assert r["critic_error"] == pytest.approx((16.5, np.std([30.0, 3.0], ddof=1)))
+    header = diagnosis.markdown([r]).splitlines()[0]
+    assert "| eval_high_q_start | eval_high_return_discounted | critic_error |" in header

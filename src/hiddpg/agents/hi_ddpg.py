@@ -177,8 +177,11 @@ class HIDDPG:
         high_action = jnp.where(switch, high_action, seg.high_action)
         goal, duration = self.decode(high_action)
         n = jnp.clip(jnp.round(duration), 1, steps_left).astype(jnp.int32)
+        carried = choice.carried(high_action, n)
+        first = switch & (seg.n_goals == 0)
+        q_start = jnp.where(first, choice.q(state.high, hobs, carried), 0.0)
         seg = seg.replace(
-            high_action=jnp.where(switch, choice.carried(high_action, n), high_action),
+            high_action=jnp.where(switch, carried, high_action),
             goal=goal, remaining=jnp.where(switch, n, seg.remaining),
             seg_obs=jnp.where(switch, hobs, seg.seg_obs),
             seg_reward=jnp.where(switch, 0.0, seg.seg_reward),
@@ -189,7 +192,7 @@ class HIDDPG:
                                                  state.episodes)
             seg = seg.replace(low_noise=low_noise)
         env_action = self.env_action(action)
-        return seg, env_action, (action, switch, duration, steps_left, pretrain)
+        return seg, env_action, (action, switch, duration, steps_left, pretrain, q_start)
 
     def observe(self, state: HIDDPGState, seg: Segment, obs: jax.Array, info: Any, res: Any,
                 alive: jax.Array, keys: dict, random_phase: jax.Array, horizon: int,
@@ -197,7 +200,7 @@ class HIDDPG:
         """Alg. 1 lines 10-20: the rewards of the step; in training ``D_L`` and ``D_H`` get
         their transitions and both levels learn."""
         c = self.config
-        action, switch, duration, steps_left, pretrain = info
+        action, switch, duration, steps_left, pretrain, q_start = info
         r_env = jnp.where(alive, res.reward, 0.0)
         done = res.terminated | res.truncated
         r_int = self.intrinsic_reward(res.obs, seg.goal)
@@ -210,7 +213,11 @@ class HIDDPG:
         space = self.env.goal_space  # how far each segment ended from its goal
         reach = jnp.linalg.norm(space.select(res.obs) - space.select(seg.goal))
         adds = {"env_return": r_env, "ret": jnp.where(seg_end, f, 0.0), "length": alive,
-                "reach_error": jnp.where(seg_end, reach, 0.0), "segments": seg_end}
+                "reach_error": jnp.where(seg_end, reach, 0.0), "segments": seg_end,
+                "high_q_start": q_start,
+                "high_return_discounted": jnp.where(seg_end, seg.discount * f, 0.0)}
+        seg = seg.replace(discount=jnp.where(seg_end, seg.discount * c.high.gamma,
+                                             seg.discount))
         if train:
             state, learned = self._store_and_learn(state, seg, obs, action, res, r_int, f,
                                                    alive, seg_end, keys, random_phase,

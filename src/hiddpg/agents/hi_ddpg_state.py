@@ -44,6 +44,7 @@ class Segment:
     seg_reward: jax.Array  # Σ r_env so far in the segment
     n_goals: jax.Array
     t: jax.Array  # steps taken in the episode
+    discount: jax.Array  # γ_H to the number of segments ended so far
     high_noise: noise.NoiseState
     low_noise: noise.NoiseState
 
@@ -54,7 +55,7 @@ def new_segment(obs: jax.Array, seg_obs: jax.Array, goal_dim: int, action_dim: i
     return Segment(
         high_action=jnp.zeros((goal_dim + 1,)), goal=jnp.zeros_like(obs),
         remaining=jnp.zeros((), jnp.int32), seg_obs=seg_obs, seg_reward=jnp.zeros(()),
-        n_goals=jnp.zeros((), jnp.int32), t=jnp.zeros((), jnp.int32),
+        n_goals=jnp.zeros((), jnp.int32), t=jnp.zeros((), jnp.int32), discount=jnp.ones(()),
         high_noise=noise.init(high_noise, goal_dim + 1),
         low_noise=noise.init(low_noise, action_dim))
 
@@ -63,7 +64,7 @@ def zero_sums() -> dict[str, jax.Array]:
     """The per-step sums of an episode: both levels' losses and updates, the returns."""
     names = [f"{lv}_{m}" for lv in ("high", "low") for m in _LOSSES]
     names += ["high_updates", "low_updates", "env_return", "ret", "length", "reach_error",
-              "segments"]
+              "segments", "high_q_start", "high_return_discounted"]
     return {n: jnp.zeros(()) for n in names}
 
 
@@ -79,11 +80,17 @@ def update_sums(high_m: dict, low_m: dict, learn_high: jax.Array,
 def episode_metrics(state: HIDDPGState, seg: Segment, sums: dict,
                     train: bool) -> EpisodeMetrics:
     """The episode's returns, length, switches (goals after the first) and ``reach_error``,
-    the mean distance between a segment's last state and its goal (goal entries); in training
-    also each level's mean losses, critic value and action-gradient norm per update."""
+    the mean distance between a segment's last state and its goal (goal entries); the high
+    critic's value of the episode's first choice (``high_q_start``) against what that value
+    estimates, the high level's discounted return ``Σ_k γ_H^k f_k`` over the episode's
+    segments (``high_return_discounted``: in a noise-free evaluation the two differ by the
+    critic's error at the start state); in training also each level's mean losses, critic
+    value and action-gradient norm per update."""
     s = sums
     extra = {"env_steps": state.env_steps.astype(jnp.float32),
-             "reach_error": s["reach_error"] / jnp.maximum(s["segments"], 1.0)}
+             "reach_error": s["reach_error"] / jnp.maximum(s["segments"], 1.0),
+             "high_q_start": s["high_q_start"],
+             "high_return_discounted": s["high_return_discounted"]}
     if train:
         for lv in ("high", "low"):
             n = jnp.maximum(s[f"{lv}_updates"], 1.0)

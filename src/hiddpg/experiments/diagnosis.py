@@ -12,10 +12,16 @@ committed under ``results/``) gives the same table and curves without the run di
 * ``score``: the mean of each seed's last :data:`LAST_EVALS` evaluations (less noisy than one),
   and ``vs_paper``: its difference to the unchanged run's (``paper``) with a Welch 95%
   interval (``vs_base`` with ``--base LABEL``: to the run of that label);
-* ``eval_env_return`` and ``eval_switches``: the last noise-free evaluation;
+* ``eval_env_return`` and ``eval_switches``: the last noise-free evaluation; HI-DDPG's
+  ``eval_high_q_start`` (the high critic's value of the evaluation's first choice) and
+  ``eval_high_return_discounted`` (the discounted high-level return ``Σ_k γ_H^k f_k`` that
+  value estimates), and ``critic_error``, their difference, each seed's mean over its last
+  :data:`LAST_EVALS` evaluations: the critic's error at the start state, where positive
+  optimistic;
 * ``env_return``, ``return``, HI-DDPG's ``reach_error`` (how far a segment ends from its
-  goal), ``high_q_mean`` (the high critic's mean value of its batches, against ``return``,
-  the high-level return the episodes got) and both levels' ``dq_da_norm`` (the action
+  goal), ``high_q_mean`` (the high critic's mean value of its batches: segments from every
+  point of an episode, so not comparable with an episode's return) and both levels'
+  ``dq_da_norm`` (the action
   gradient's mean norm): training, last ``window`` episodes, where the run logged them.
 
 ``python -m hiddpg.experiments.diagnosis DIR|EXPORT.json ... [--at EPISODE] [--plot FILE.png]
@@ -41,7 +47,11 @@ LAST_EVALS = 5
 #: training columns averaged over the last ``window`` episodes of every seed
 WINDOW_COLUMNS = ("env_return", "return", "reach_error", "high_q_mean", "high_dq_da_norm",
                   "low_dq_da_norm")
-EVAL_COLUMNS = ("eval_env_return", "eval_switches")
+EVAL_COLUMNS = ("eval_env_return", "eval_switches", "eval_high_q_start",
+                "eval_high_return_discounted")
+#: the high critic's error at an evaluation's start state: its value of its first choice
+#: minus the discounted high-level return the noise-free episode got
+CRITIC_ERROR = ("eval_high_q_start", "eval_high_return_discounted")
 
 
 def changes(path: Path) -> str:
@@ -161,6 +171,9 @@ def row(rec: dict[str, Any]) -> dict[str, Any]:
         if column == "eval_env_return":
             per_seed = np.asarray(values)[:, -LAST_EVALS:].mean(axis=1)
             out["score"], out["_scores"] = _spread(per_seed), per_seed
+    if all(c in rec["eval"] for c in CRITIC_ERROR):
+        q, ret = (np.asarray(rec["eval"][c])[:, -LAST_EVALS:] for c in CRITIC_ERROR)
+        out["critic_error"] = _spread((q - ret).mean(axis=1))
     for column, per_seed in rec["window"].items():
         out[column] = _spread(np.asarray(per_seed))
     return out
@@ -186,7 +199,8 @@ def summarize(paths: list[str] | tuple[str, ...], window: int = 200,
 
 def markdown(rows: list[dict[str, Any]]) -> str:
     """The rows as a Markdown table (``mean ± std`` cells, blank where a run lacks a column)."""
-    columns = ["score", "vs_paper", "vs_base", *EVAL_COLUMNS, *WINDOW_COLUMNS]
+    columns = ["score", "vs_paper", "vs_base", *EVAL_COLUMNS, "critic_error",
+               *WINDOW_COLUMNS]
     present = [c for c in columns if any(c in r for r in rows)]
     lines = ["| run | episodes | seeds | " + " | ".join(present) + " |",
              "|---|---|---|" + "---|" * len(present)]
