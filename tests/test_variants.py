@@ -43,6 +43,7 @@ EXPECTED = {
     "lr-1e-3": {"ddpg": ["actor_lr"], "hi-ddpg": ["high.lr", "low.lr"],  # critics: 1e-3
                 "h-ddpg": ["skill.actor_lr"]},
     "high-every-step": {"ddpg": [], "hi-ddpg": ["eager_high"], "h-ddpg": []},
+    "low-through-termination": {"ddpg": [], "hi-ddpg": ["low.env_terminal"], "h-ddpg": []},
 }
 
 
@@ -65,6 +66,8 @@ def test_changes_set_the_values_they_name():
     assert get(paper, ["linear-output"]).high.actor_output == "linear"
     assert get(paper, ["action-l2"]).low.action_l2 == 1.0
     assert get(paper, ["invert-gradients"]).high.invert_gradients is True
+    assert get(paper, ["low-through-termination"]).low.env_terminal is False
+    assert get(paper, ["low-through-termination"]).high.env_terminal is True
     # h-DDPG's meta-critic is not an actor-critic block: its rate stays
     h = make_config("h-ddpg", "PuckObstacle", "paper").agent
     assert get(h, ["lr-x5"]).meta == h.meta

@@ -72,6 +72,12 @@ def _eager_high(agent: Any) -> Any:
     return dataclasses.replace(agent, eager_high=EagerHighLevel())
 
 
+def _low_through_termination(agent: Any) -> Any:
+    if not isinstance(agent, HIDDPGConfig):
+        return agent
+    return dataclasses.replace(agent, low=dataclasses.replace(agent.low, env_terminal=False))
+
+
 #: Every change the diagnosis measures, by name.
 CHANGES: dict[str, Change] = {c.name: c for c in (
     Change("lr-x5", "learning rates ×5 at every level", _scale_lr(5.0)),
@@ -87,6 +93,9 @@ CHANGES: dict[str, Change] = {c.name: c for c in (
            "action is used", _blocks(actor_output="linear")),
     Change("high-every-step", "HI-DDPG's high level learns at every step instead of once per "
            "segment end (Alg. 1)", _eager_high),
+    Change("low-through-termination", "HI-DDPG's low level, whose reward is intrinsic, "
+           "bootstraps through the environment's termination (the high level does not)",
+           _low_through_termination),
 )}
 
 #: The changes of ``paper+``, in the order they are applied: those docs/diagnosis.md shows are
