@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 from hi_ddpg_support import (
@@ -74,8 +75,8 @@ def test_evaluate_reports_the_high_critics_value_of_its_first_choice():
     for i, state in enumerate([run.final, _random_high_actor(run.final, 1)]):
         key = jax.random.PRNGKey(i)
         metrics, traj = evaluate(key, state, run.params)
-        hobs = choice.inputs(traj["obs"][0], jax.numpy.asarray(HORIZON), HORIZON)
-        action = choice.propose(state.high, hobs, jax.numpy.asarray(HORIZON))
+        hobs = choice.inputs(traj["obs"][0], jnp.asarray(HORIZON), HORIZON)
+        action = choice.propose(state.high, hobs, jnp.asarray(HORIZON))
         q = choice.q(state.high, hobs, action)
         np.testing.assert_allclose(metrics["high_q_start"], q, rtol=1e-5, atol=1e-6)
         values.append(float(q))

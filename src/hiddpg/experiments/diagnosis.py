@@ -21,8 +21,8 @@ committed under ``results/``) gives the same table and curves without the run di
 * ``env_return``, ``return``, HI-DDPG's ``reach_error`` (how far a segment ends from its
   goal), ``high_q_mean`` (the high critic's mean value of its batches: segments from every
   point of an episode, so not comparable with an episode's return) and both levels'
-  ``dq_da_norm`` (the action
-  gradient's mean norm): training, last ``window`` episodes, where the run logged them.
+  ``dq_da_norm`` (the action gradient's mean norm): training, last ``window`` episodes,
+  where the run logged them.
 
 ``python -m hiddpg.experiments.diagnosis DIR|EXPORT.json ... [--at EPISODE] [--plot FILE.png]
 [--export FILE.json] [--base LABEL]`` prints the table (:func:`markdown`) and draws the
