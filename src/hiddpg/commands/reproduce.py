@@ -5,6 +5,7 @@
     hiddpg reproduce {fig3,fig4,fig5,fig6,fig7,fig8,all} [--scale quick|paper]
                      [--variant quick|paper|paper+|extended] [--seeds N]
                      [--out DIR] [--episodes N] [--set KEY=VALUE ...] [--part SEEDS]
+                     [--algos ALGO,...]
 
 Runs go to ``DIR/runs/<algo>-<task>/`` and are shared between figures; every run on disk is
 reused (a finished one as is, an interrupted one resumed), so an invocation that is killed
@@ -19,7 +20,9 @@ first); ``--dry-run`` lists the runs it would train, resume or reuse and the env
 left. ``--part 0-4`` trains only those seeds of each run, as a run of their own whose artifact
 (``DIR/parts/``, committed like the artifacts) is merged with the other parts into the run's
 artifact (:mod:`hiddpg.experiments.parts`): a run too long to train in one go is trained part by
-part, on any machine, and the figures are drawn from the seeds merged so far.
+part, on any machine, and the figures are drawn from the seeds merged so far. ``--algos
+hi-ddpg`` trains only that algorithm's runs, so a comparison figure's methods can be trained
+one at a time; the figure draws the others from their artifacts where they exist.
 """
 
 from __future__ import annotations
@@ -66,6 +69,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="train only these seeds of each run (e.g. 0-4 or 5,6), as a run of "
                         "their own, and merge its artifact with the other parts in DIR/parts; "
                         "the figures show the seeds merged so far")
+    p.add_argument("--algos", default=None, metavar="ALGO[,ALGO]",
+                   help="train only these algorithms' runs (e.g. hi-ddpg,ddpg); a figure "
+                        "draws every other method from its artifact, or leaves it out")
     p.add_argument("--out", default=None,
                    help="output directory (default results/<scale>/<variant>)")
     p.add_argument("--episodes", type=int, default=None,
@@ -105,9 +111,10 @@ def _context(args: argparse.Namespace) -> Context:
         part = tuple(parse_seeds(args.part)) if args.part is not None else None
     except ValueError as err:
         raise UsageError(f"--part: {err}") from None
+    algos = None if args.algos is None else tuple(a.strip() for a in args.algos.split(","))
     ctx = Context(out=args.out or f"results/{args.scale}/{variant}", scale=args.scale,
                   variant=variant, seeds=args.seeds, episodes=args.episodes, sets=tuple(args.sets),
-                  tasks=tasks, part=part)
+                  tasks=tasks, part=part, algos=algos)
     ctx.config("hi-ddpg", "PuckTrajectory1")  # a bad --set fails here, before training
     return ctx
 

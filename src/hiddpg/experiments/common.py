@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from hiddpg import runner, summary
-from hiddpg.algorithms import get_algorithm
+from hiddpg.algorithms import algorithm_names, get_algorithm
 from hiddpg.configs import HIDDPGConfig, TrainConfig
 from hiddpg.experiments.artifacts import ARTIFACTS_DIR, export_run, is_artifact
 from hiddpg.experiments.budgets import (
@@ -87,6 +87,9 @@ class Context:
     part: tuple[int, ...] | None = None
     """Train only these seeds of each run, as a run of their own whose artifact is merged
     with the other parts on disk (:mod:`hiddpg.experiments.parts`); ``None``: whole runs."""
+    algos: tuple[str, ...] | None = None
+    """Train only these algorithms' runs; a figure takes every other method from its
+    artifact on disk, and leaves it out where there is none; ``None``: train every method."""
 
     def __post_init__(self) -> None:
         if self.scale not in SCALES:
@@ -103,7 +106,17 @@ class Context:
                 raise ValueError(f"part={list(self.part)} must be seeds of the runs' "
                                  f"0..{n - 1} ({n} seeds per run)")
             self.part = tuple(sorted(self.part))
+        if self.algos is not None:
+            known = algorithm_names()
+            if not self.algos or any(a not in known for a in self.algos):
+                raise ValueError(f"algos={list(self.algos)} must be one or more of "
+                                 f"{list(known)}")
+            self.algos = tuple(self.algos)
         self.out = Path(self.out)
+
+    def trains(self, algo: str) -> bool:
+        """Whether this invocation trains ``algo``'s runs (``algos``)."""
+        return not self.from_artifacts and (self.algos is None or algo in self.algos)
 
     def say(self, message: str) -> None:
         print(message, file=self.log or sys.stderr, flush=True)
@@ -190,9 +203,12 @@ def available(ctx: Context, algo: str, task: str) -> str | None:
     """``None`` if ``algo``'s run on ``task`` is finished on disk or can be trained; else why
     not (one line), e.g. an algorithm without a preset or whose module does not import;
     from artifacts: ``None`` if its artifact is there."""
-    if ctx.from_artifacts:
+    if not ctx.trains(algo):
         path = ctx.artifact_path(algo, task)
-        return None if is_artifact(path) else f"no artifact {path}"
+        if is_artifact(path):
+            return None
+        return (f"no artifact {path}" if ctx.from_artifacts else
+                f"not trained here (--algos {','.join(ctx.algos or ())}) and no artifact {path}")
     try:
         config = ctx.config(algo, task)
         path = ctx.run_path(algo, task)
@@ -217,9 +233,11 @@ def ensure_run(ctx: Context, algo: str, task: str) -> Path:
     committed one, its run directory gone), is returned as it is. From artifacts: the artifact
     directory, nothing trained. With a part: the part's run is trained so, its artifact merged
     with the other parts', and the merged artifact returned."""
-    if ctx.from_artifacts:
+    if not ctx.trains(algo):
         if why := available(ctx, algo, task):
             raise ExperimentError(f"{why}; `hiddpg reproduce` writes it")
+        if not ctx.from_artifacts:
+            ctx.say(f"{ctx.artifact_path(algo, task)}: not in --algos, drawn from its artifact")
         return ctx.artifact_path(algo, task)
     artifact, config = ctx.artifact_path(algo, task), ctx.config(algo, task)
     path, seeds = ctx.run_path(algo, task), ctx.seed_list(task)

@@ -51,13 +51,15 @@ class PlannedRun:
 
 
 def plan(ctx: Context, figures: tuple[str, ...] | list[str]) -> list[PlannedRun]:
-    """Every run the figures need, in the order they are first trained."""
+    """Every run the figures need that this invocation trains (``ctx.algos``), in the order
+    they are first trained."""
     from hiddpg.runs import make_trainer
 
     order: dict[tuple[str, str], list[str]] = {}
     for figure in figures:
         for key in figure_runs(ctx, figure):
-            order.setdefault(key, []).append(figure)
+            if ctx.trains(key[0]):
+                order.setdefault(key, []).append(figure)
     out = []
     for (algo, task), needed_by in order.items():
         config, seeds = ctx.config(algo, task), ctx.seed_list(task)

@@ -1,0 +1,73 @@
+"""``hiddpg reproduce --algos``: a comparison figure's methods trained one invocation at a
+time; each invocation trains only its algorithms and draws the others from their artifacts.
+
+One tiny Fig. 7 (2 seeds x 20 episodes): DDPG alone first, then HI-DDPG alone.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from hiddpg.commands import reproduce
+
+TINY = ["--seeds", "2", "--episodes", "20", "--set", "agent.hidden=[16,16]"]
+
+
+def _fig7(out, *extra):
+    return reproduce.main(["fig7", "--out", str(out), *TINY, *extra])
+
+
+def _section(out):
+    return json.loads((out / "sections" / "fig7.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def outputs(tmp_path_factory):
+    out = tmp_path_factory.mktemp("fig7")
+    assert _fig7(out, "--algos", "ddpg") == 0
+    first = _section(out)
+    ddpg_files = {p.name: p.read_bytes() for p in (out / "artifacts" / "ddpg-PuckObstacle")
+                  .iterdir() if p.is_file()}
+    assert _fig7(out, "--algos", "hi-ddpg") == 0
+    return out, first, ddpg_files
+
+
+def test_first_invocation_trains_and_draws_only_its_algorithm(outputs):
+    _, first, _ = outputs
+    assert list(first["runs"]) == ["DDPG"]
+    assert first["numbers"]["final"]["DDPG"]["n"] == 2
+    for other in ("hi-ddpg", "h-ddpg", "hi-ddpg-wo-model"):
+        assert f"{other} is not available and was left out (not trained here (--algos ddpg)" \
+            in first["markdown"]
+
+
+def test_second_invocation_draws_the_first_from_its_artifact_untouched(outputs):
+    out, _, ddpg_files = outputs
+    second = _section(out)
+    assert list(second["runs"]) == ["HI-DDPG", "DDPG"]
+    assert second["runs"]["DDPG"] == "artifacts/ddpg-PuckObstacle"
+    assert [(p["a"], p["b"]) for p in second["numbers"]["pairs"]] == [("HI-DDPG", "DDPG")]
+    now = {p.name: p.read_bytes() for p in (out / "artifacts" / "ddpg-PuckObstacle").iterdir()
+           if p.is_file()}
+    assert now == ddpg_files
+    assert sorted(p.name for p in (out / "runs").iterdir()) == ["ddpg-PuckObstacle",
+                                                                "hi-ddpg-PuckObstacle"]
+
+
+def test_dry_run_lists_only_the_algorithms_it_trains(outputs, capsys):
+    out, _, _ = outputs
+    capsys.readouterr()
+    assert _fig7(out, "--algos", "h-ddpg,ddpg", "--dry-run") == 0
+    table = capsys.readouterr().out
+    assert "| h-ddpg on PuckObstacle |" in table and "| ddpg on PuckObstacle |" in table
+    assert "| hi-ddpg on PuckObstacle |" not in table
+
+
+@pytest.mark.parametrize("algos", ["ddgp", "", "hi-ddpg,sac"])
+def test_unknown_algorithms_exit_2_naming_the_value(algos, tmp_path, capsys):
+    assert _fig7(tmp_path / "out", "--algos", algos) == 2
+    err = capsys.readouterr().err
+    assert "must be one or more of" in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()
