@@ -4,6 +4,10 @@ number.
 
     python scripts/golden.py record tests/golden/metrics.json   # before
     python scripts/golden.py check  tests/golden/metrics.json   # after: bit for bit
+    python scripts/golden.py merge  tests/golden/metrics.json   # a new metric: add its key
+
+``merge`` adds the metric keys a case logs that the file lacks (a new logged quantity), keeps
+every recorded value and digest, and says which recorded keys the case no longer logs.
 
 Each case trains two seeds (0, 1) through ``make_train`` vmapped with the seed axis name (the
 engine's gated updates) for a few episodes with small start-up phases, so that every learning
@@ -16,7 +20,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import sys
+from pathlib import Path
 
 import jax
 import numpy as np
@@ -99,16 +105,46 @@ def main(argv: list[str]) -> int:
         print(name, results[name]["sha256"][:12], results[name]["state_sha256"][:12],
               flush=True)
     if mode == "record":
-        with open(path, "w") as f:
-            json.dump(results, f, indent=0, sort_keys=True)
+        _write(path, results)
         return 0
     with open(path) as f:
         golden = json.load(f)
+    if mode == "merge":
+        return _merge(path, golden, results)
     bad = [n for n in results if _differs(golden[n], results[n])]
     for n in bad:
         print("DIFFERS:", n)
     print(f"{len(results) - len(bad)}/{len(results)} cases bit for bit")
     return 1 if bad else 0
+
+
+def _write(path: str, results: dict) -> None:
+    """Write ``results`` to ``path`` through a temporary file: never a half-written file."""
+    tmp = Path(path).with_suffix(".tmp")
+    tmp.write_text(json.dumps(results, indent=0, sort_keys=True))
+    os.replace(tmp, path)
+
+
+def _merge(path: str, golden: dict, results: dict) -> int:
+    """Add the metric keys of ``results`` that ``golden`` lacks; 1 if a case is not in the
+    file or a recorded key is no longer logged."""
+    missing = [n for n in results if n not in golden]
+    gone = []
+    for name, new in results.items():
+        if name in missing:
+            continue
+        for part in ("train", "eval"):
+            held = golden[name]["values"][part]
+            added = sorted(set(new["values"][part]) - set(held))
+            held.update({k: new["values"][part][k] for k in added})
+            gone += [f"{name}: {part}/{k}" for k in sorted(set(held) - set(new["values"][part]))]
+            if added:
+                print(f"{name}: added {part}/{', '.join(added)}")
+    _write(path, golden)
+    for line in [f"not in {path} (record it): {n}" for n in missing] + \
+            [f"recorded but no longer logged: {g}" for g in gone]:
+        print(line)
+    return 1 if missing or gone else 0
 
 
 def _differs(old: dict, new: dict) -> bool:

@@ -37,3 +37,23 @@ def test_a_golden_run_gives_the_recorded_metrics(name):
         for key, values in recorded["values"][part].items():
             np.testing.assert_allclose(got["values"][part][key], values, rtol=1e-3, atol=1e-4,
                                        err_msg=f"{name} {part} {key}")
+
+
+def _case(train: dict, digest: str = "s") -> dict:
+    return {"sha256": digest, "state_sha256": digest, "values": {"train": train, "eval": {}}}
+
+
+def test_merge_adds_only_missing_keys_and_keeps_recorded_values(tmp_path, capsys):
+    golden = _golden_module()
+    path = tmp_path / "metrics.json"
+    recorded = {"a": _case({"loss": [1.0]}, "old"), "b": _case({"loss": [2.0], "gone": [0.0]})}
+    new = {"a": _case({"loss": [1.5], "q": [3.0]}, "new"), "b": _case({"loss": [2.0]}),
+           "c": _case({"loss": [4.0]})}
+    assert golden._merge(str(path), recorded, new) == 1  # c is unrecorded, b/gone not logged
+    merged = json.loads(path.read_text())
+    assert merged["a"] == _case({"loss": [1.0], "q": [3.0]}, "old")
+    assert merged["b"] == _case({"loss": [2.0], "gone": [0.0]}) and "c" not in merged
+    out = capsys.readouterr().out
+    assert "a: added train/q" in out and "record it): c" in out and "b: train/gone" in out
+    assert golden._merge(str(path), merged, {"a": new["a"]}) == 0
+    assert list(tmp_path.iterdir()) == [path]  # no temporary file left
