@@ -92,7 +92,8 @@ CHANGES: dict[str, Change] = {c.name: c for c in (
     Change("linear-output", "linear actor outputs (the paper's §II-D), clipped where the "
            "action is used", _blocks(actor_output="linear")),
     Change("high-every-step", "HI-DDPG's high level learns at every step instead of once per "
-           "segment end (Alg. 1)", _eager_high),
+           "segment end (Alg. 1), and D_H also keeps the low level's pre-training segments "
+           "(where there is a pre-training: the arm)", _eager_high),
     Change("low-through-termination", "HI-DDPG's low level, whose reward is intrinsic, "
            "bootstraps through the environment's termination (the high level does not)",
            _low_through_termination),
