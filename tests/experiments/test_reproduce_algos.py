@@ -71,3 +71,34 @@ def test_unknown_algorithms_exit_2_naming_the_value(algos, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "must be one or more of" in err and "Traceback" not in err
     assert not (tmp_path / "out").exists()
+
+
+def test_all_passes_over_figures_it_trains_nothing_of_and_cannot_draw(outputs, capsys):
+    out, _, _ = outputs
+    capsys.readouterr()
+    assert reproduce.main(["all", "--out", str(out), *TINY, "--algos", "ddpg",
+                           "--dry-run"]) == 0
+    printed = capsys.readouterr().out
+    for figure, algo, task in [("fig3", "hi-ddpg", "PuckTrajectory2"),
+                               ("fig6", "hi-ddpg", "ArmObstacle")]:
+        assert (f"{figure} passed over: --algos ddpg trains none of its runs and {algo} on "
+                f"{task} has no artifact") in printed
+    assert "fig7 passed over" not in printed and "fig8 passed over" not in printed
+    table = printed[printed.index("| run |"):]
+    assert "| ddpg on PuckObstacle | fig7 |" in table and "| ddpg on ArmObstacle | fig8 |" in table
+    assert "| hi-ddpg on" not in table
+
+
+def test_a_figure_whose_artifacts_are_all_there_is_drawn(tmp_path):
+    from hiddpg.experiments.artifacts import META_FILE
+    from hiddpg.experiments.common import Context
+    from hiddpg.experiments.schedule import not_drawn
+
+    ctx = Context(out=str(tmp_path), scale="quick", variant="quick", algos=("ddpg",))
+    assert not_drawn(ctx, "fig3").startswith("fig3 passed over: --algos ddpg")
+    assert not_drawn(ctx, "fig7") is None  # it trains ddpg there
+    artifact = ctx.artifact_path("hi-ddpg", "PuckTrajectory2")  # Fig. 3's task
+    artifact.mkdir(parents=True)
+    (artifact / META_FILE).write_text("{}")
+    assert not_drawn(ctx, "fig3") is None
+    assert not_drawn(Context(out=str(tmp_path), scale="quick", variant="quick"), "fig6") is None

@@ -22,7 +22,9 @@ left. ``--part 0-4`` trains only those seeds of each run, as a run of their own 
 artifact (:mod:`hiddpg.experiments.parts`): a run too long to train in one go is trained part by
 part, on any machine, and the figures are drawn from the seeds merged so far. ``--algos
 hi-ddpg`` trains only that algorithm's runs, so a comparison figure's methods can be trained
-one at a time; the figure draws the others from their artifacts where they exist.
+one at a time; the figure draws the others from their artifacts where they exist, and
+``all --algos`` passes over, with a note, a figure that trains none of them and lacks an
+artifact (Fig. 6 under ``--algos ddpg`` before HI-DDPG's arm run exists).
 """
 
 from __future__ import annotations
@@ -123,7 +125,7 @@ def _reproduce(args: argparse.Namespace, ctx: Context) -> int:
     """Run the figures and write the report; 1 if an experiment fails, 130 if interrupted."""
     from hiddpg.experiments.redraw import write_context
     from hiddpg.experiments.report import write_report
-    from hiddpg.experiments.schedule import CHEAP_FIRST, plan, plan_table
+    from hiddpg.experiments.schedule import CHEAP_FIRST, not_drawn, plan, plan_table
     from hiddpg.variants import same_as
 
     alias = same_as(ctx.variant)
@@ -133,6 +135,11 @@ def _reproduce(args: argparse.Namespace, ctx: Context) -> int:
               f"and numbers are {alias}'s; nothing to train here, run --variant {alias}")
         return 0
     figures = CHEAP_FIRST if args.figure == "all" else (args.figure,)
+    if args.figure == "all":
+        passed = {name: why for name in figures if (why := not_drawn(ctx, name))}
+        for why in passed.values():
+            print(f"{PROG}: {why}")
+        figures = tuple(name for name in figures if name not in passed)
     if args.dry_run:
         try:
             table = plan_table(plan(ctx, figures))

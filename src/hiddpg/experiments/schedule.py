@@ -35,6 +35,22 @@ def figure_runs(ctx: Context, figure: str) -> list[tuple[str, str]]:
     raise ValueError(f"unknown figure {figure!r}; choose one of {list(CHEAP_FIRST)}")
 
 
+def not_drawn(ctx: Context, figure: str) -> str | None:
+    """Why ``reproduce all --algos`` passes over ``figure`` (one line), or ``None`` if it is
+    drawn: a figure is passed over when the invocation trains none of its runs and one of them
+    has no artifact, so there is nothing new to draw and drawing it would fail."""
+    from hiddpg.experiments.common import available
+
+    runs = figure_runs(ctx, figure)
+    if ctx.algos is None or any(ctx.trains(algo) for algo, _ in runs):
+        return None
+    for algo, task in runs:
+        if available(ctx, algo, task) is not None:
+            return (f"{figure} passed over: --algos {','.join(ctx.algos)} trains none of its "
+                    f"runs and {algo} on {task} has no artifact {ctx.artifact_path(algo, task)}")
+    return None
+
+
 @dataclass(frozen=True)
 class PlannedRun:
     """One run of an invocation: its budget, what is on disk, the steps left."""
