@@ -14,14 +14,18 @@ and is evaluated the same way: before training and after every ``--eval-every`` 
 steps, ``--eval-episodes`` noise-free episodes from the same Gymnasium reset seeds for every
 method and seed (those of the episode keys ``PRNGKey(10000 + i)``, as our host loop draws
 them). Ours: ``--preset paper`` (the presets' generic values for a Gymnasium task), the seeds
-trained together in one run directory (``OUT/runs/METHOD``, resumed from its checkpoint).
+of one invocation trained together in one run directory (``OUT/runs/METHOD-seeds-0-4``,
+resumed from its checkpoint); ``--seeds 0-1`` then ``--seeds 2-4`` trains a method's seeds in
+two parts, each a record of its own, so a method too long for one sitting is trained part by
+part and the curves and table merge the finished parts.
 SB3: ``DDPG`` and ``TD3`` with our networks (``--hidden``), batch (64), replay (100,000),
 random steps before learning (DDPG's ``learning_starts``), discount (0.99) and Gaussian action
 noise of 0.1 of the half range (our OU noise's scale); their own learning rates (1e-3) and
 tau (0.005); one seed after another, each seed's record written when it finishes.
 
-Written under ``OUT`` (default ``results/gym-demo/ENV``): ``records/METHOD.json`` (the
-evaluation curve of every seed, the config and the versions), ``rates.json`` (the measured
+Written under ``OUT`` (default ``results/gym-demo/ENV``): ``records/METHOD/seeds-0-4.json``
+(ours; SB3's ``records/METHOD/seed0.json``: the evaluation curve of every seed, the config and
+the versions), ``rates.json`` (the measured
 steps per second), ``curves.png`` (mean +- std over seeds), ``table.md`` (final return per
 method, mean +- std over seeds, and the Welch 95% interval of each method's difference to SB3
 TD3) and ``hi-ddpg.gif`` (``hiddpg eval --gif`` of our HI-DDPG run, ``MUJOCO_GL=egl``).
@@ -52,12 +56,13 @@ request_cpu_devices()  # as the hiddpg command does
 
 import jax  # noqa: E402
 import numpy as np  # noqa: E402
+from _demo_summary import read, summarize  # noqa: E402
 
 from hiddpg.host.catalog import ELBOW_ENV, ELBOW_ID  # noqa: E402
 
 ENVS = {"Reacher-v5": ("Reacher-v5", 2000, 100), ELBOW_ID: (ELBOW_ENV, 1000, 50)}
 OURS, SB3 = ("ddpg", "hi-ddpg", "h-ddpg"), ("sb3-ddpg", "sb3-td3")
-EVAL_KEY, BATCH, BUFFER, BASELINE = 10_000, 64, 100_000, "sb3-td3"
+EVAL_KEY, BATCH, BUFFER = 10_000, 64, 100_000
 
 
 def versions() -> dict:
@@ -85,8 +90,21 @@ def write(path: Path, data: dict) -> None:
     tmp.replace(path)
 
 
-def read(path: Path) -> dict | None:
-    return json.loads(path.read_text()) if path.is_file() else None
+def part_name(seeds: list[int]) -> str:
+    """The name of our run and record of these seeds: ``seeds-0-4``, ``seeds-0-1_5``."""
+    from hiddpg.runner import seed_ranges
+
+    return "seeds-" + "_".join(seed_ranges(seeds))
+
+
+def check_part(out: Path, method: str, seeds: list[int]) -> None:
+    """Exit with a message if another record of ``method`` holds one of ``seeds``."""
+    mine = out / "records" / method / f"{part_name(seeds)}.json"
+    for f in sorted((out / "records" / method).glob("seed*.json")):
+        held = set((read(f) or {}).get("seeds", [(read(f) or {}).get("seed")]))
+        if f != mine and held & set(seeds):
+            raise SystemExit(f"--seeds {','.join(map(str, seeds))}: {method} already has "
+                             f"seeds {sorted(held & set(seeds))} in {f}; choose others")
 
 
 def our_sets(algo: str, a: argparse.Namespace) -> list[str]:
@@ -118,7 +136,9 @@ def run_ours(algo: str, a: argparse.Namespace, out: Path, horizon: int) -> None:
     from hiddpg.runner import open_for_resume, prepare_new, train_run
     from hiddpg.runs import make_trainer
 
-    rec_path, path = out / "records" / f"{algo}.json", out / "runs" / algo
+    check_part(out, algo, a.seeds)
+    name = part_name(a.seeds)
+    rec_path, path = out / "records" / algo / f"{name}.json", out / "runs" / f"{algo}-{name}"
     config = make_config(algo, "gym:" + ENVS[a.env][0], "paper", our_sets(algo, a))
     if path.is_dir():
         run, trainer, done = open_for_resume(path, a.episodes)  # may extend the budget
@@ -148,6 +168,8 @@ def run_ours(algo: str, a: argparse.Namespace, out: Path, horizon: int) -> None:
             raise SystemExit(f"{algo}: {result.status} {result.error or ''}")
     else:
         run.close()
+    rec["finished"] = True
+    write(rec_path, rec)
 
 
 # -- Stable-Baselines3 -------------------------------------------------------------------------
@@ -179,6 +201,7 @@ def run_sb3(method: str, a: argparse.Namespace, out: Path, horizon: int) -> None
                 evals.append({"steps": self.num_timesteps, "returns": evaluate(self.model)})
             return True
 
+    check_part(out, method, a.seeds)
     for seed in a.seeds:
         path = out / "records" / method / f"seed{seed}.json"
         if path.is_file():
@@ -235,53 +258,6 @@ def probe(method: str, a: argparse.Namespace, horizon: int) -> float:
     return (n // 2) * horizon * len(a.seeds) / (time.process_time() - start)
 
 
-def curves(out: Path, methods: list[str]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Per method: the evaluation steps and the (seed, evaluation) mean returns."""
-    found = {}
-    for m in methods:
-        if m in OURS and (rec := read(out / "records" / f"{m}.json")):
-            steps = [e["steps"] for e in rec["evals"]]
-            values = np.array([np.mean(e["returns"], axis=1) for e in rec["evals"]]).T
-        elif m in SB3 and (files := sorted((out / "records" / m).glob("seed*.json"))):
-            recs = [read(f) for f in files]
-            steps = [e["steps"] for e in recs[0]["evals"]]
-            values = np.array([[np.mean(e["returns"]) for e in r["evals"]] for r in recs])
-        else:
-            continue
-        found[m] = (np.asarray(steps), values)
-    return found
-
-
-def summarize(out: Path, methods: list[str], title: str) -> None:
-    from hiddpg.experiments.diagnosis import welch_interval
-    from hiddpg.experiments.report import pyplot
-
-    found = curves(out, methods)
-    if not found:
-        return
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(7, 4))
-    lines = ["| method | seeds | env steps | final return (mean ± std) | vs SB3 TD3: "
-             "difference [Welch 95%] |", "|---|---|---|---|---|"]
-    base = found.get(BASELINE, (None, None))[1]
-    for m, (steps, values) in found.items():
-        mean, std = values.mean(0), values.std(0, ddof=1) if len(values) > 1 else 0 * values[0]
-        (line,) = ax.plot(steps, mean, label=f"{m} ({len(values)} seeds)")
-        ax.fill_between(steps, mean - std, mean + std, color=line.get_color(), alpha=0.15)
-        final, vs = values[:, -1], ""
-        if base is not None and m != BASELINE and len(final) > 1 and len(base) > 1:
-            d, lo, hi = welch_interval(final, base[:, -1])
-            vs = f"{d:+.3g} [{lo:+.3g}, {hi:+.3g}]"
-        lines.append(f"| {m} | {len(final)} | {steps[-1]} | {final.mean():.3g} ± "
-                     f"{final.std(ddof=1) if len(final) > 1 else 0:.2g} | {vs} |")
-    ax.set(xlabel="environment steps per seed", ylabel="evaluation return", title=title)
-    ax.legend(fontsize=8)
-    fig.savefig(out / "curves.png", dpi=120, bbox_inches="tight")
-    plt.close(fig)
-    (out / "table.md").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines) + f"\nwrote {out / 'curves.png'}, {out / 'table.md'}")
-
-
 def main(argv: list[str] | None = None) -> int:
     from hiddpg.runner import parse_seeds
 
@@ -325,11 +301,11 @@ def main(argv: list[str] | None = None) -> int:
     for m in a.methods:
         (run_ours if m in OURS else run_sb3)(m, a, out, horizon)
     summarize(out, [*OURS, *SB3], f"{a.env}: evaluation return, mean ± std over seeds")
-    gif = out / "hi-ddpg.gif"
-    if "hi-ddpg" in a.methods and not a.no_gif and not gif.is_file():
+    gif, run = out / "hi-ddpg.gif", out / "runs" / f"hi-ddpg-{part_name(a.seeds)}"
+    if "hi-ddpg" in a.methods and not a.no_gif and not gif.is_file() and run.is_dir():
         from hiddpg import cli
 
-        cli.main(["eval", str(out / "runs" / "hi-ddpg"), "--gif", str(gif)])
+        cli.main(["eval", str(run), "--gif", str(gif)])
     return 0
 
 
