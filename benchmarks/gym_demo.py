@@ -56,12 +56,12 @@ request_cpu_devices()  # as the hiddpg command does
 
 import jax  # noqa: E402
 import numpy as np  # noqa: E402
-from _demo_summary import read, summarize  # noqa: E402
+from _demo_summary import OURS, read, summarize  # noqa: E402
 
 from hiddpg.host.catalog import ELBOW_ENV, ELBOW_ID  # noqa: E402
 
 ENVS = {"Reacher-v5": ("Reacher-v5", 2000, 100), ELBOW_ID: (ELBOW_ENV, 1000, 50)}
-OURS, SB3 = ("ddpg", "hi-ddpg", "h-ddpg"), ("sb3-ddpg", "sb3-td3")
+SB3 = ("sb3-ddpg", "sb3-td3")
 EVAL_KEY, BATCH, BUFFER = 10_000, 64, 100_000
 
 
@@ -101,7 +101,8 @@ def check_part(out: Path, method: str, seeds: list[int]) -> None:
     """Exit with a message if another record of ``method`` holds one of ``seeds``."""
     mine = out / "records" / method / f"{part_name(seeds)}.json"
     for f in sorted((out / "records" / method).glob("seed*.json")):
-        held = set((read(f) or {}).get("seeds", [(read(f) or {}).get("seed")]))
+        rec = read(f) or {}
+        held = set(rec.get("seeds", [rec.get("seed")]))
         if f != mine and held & set(seeds):
             raise SystemExit(f"--seeds {','.join(map(str, seeds))}: {method} already has "
                              f"seeds {sorted(held & set(seeds))} in {f}; choose others")
