@@ -22,10 +22,14 @@ committed under ``results/``) gives the same table and curves without the run di
   goal), ``high_q_mean`` (the high critic's mean value of its batches: segments from every
   point of an episode, so not comparable with an episode's return) and both levels'
   ``dq_da_norm`` (the action gradient's mean norm): training, last ``window`` episodes,
-  where the run logged them.
+  where the run logged them;
+* with ``--final`` (:mod:`hiddpg.experiments.outcome`), where the final policy ends: how many
+  seeds succeed (``final_success``, on tasks with a success criterion: the arm tasks), end
+  early (``final_ended_early``: a collision on ArmObstacle), and the last step's reward
+  (``final_reward``), from one noise-free episode per seed replayed from the checkpoint.
 
 ``python -m hiddpg.experiments.diagnosis DIR|EXPORT.json ... [--at EPISODE] [--plot FILE.png]
-[--export FILE.json] [--base LABEL]`` prints the table (:func:`markdown`) and draws the
+[--export FILE.json] [--base LABEL] [--final]`` prints the table (:func:`markdown`) and draws the
 evaluation curves (:func:`plot_curves`); given an exported study and run directories, it
 adds the runs to the study's records (``--export`` the same file to keep them).
 """
@@ -40,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from hiddpg.experiments import outcome
 from hiddpg.experiments.rundata import ExperimentError, RunData, discover_runs, load_run
 
 #: evaluations averaged per seed for ``score``
@@ -52,6 +57,8 @@ EVAL_COLUMNS = ("eval_env_return", "eval_switches", "eval_high_q_start",
 #: the high critic's error at an evaluation's start state: its value of its first choice
 #: minus the discounted high-level return the noise-free episode got
 CRITIC_ERROR = ("eval_high_q_start", "eval_high_return_discounted")
+#: the final policy's outcome (``--final``); counts of seeds, then the mean last reward
+FINAL_COLUMNS = ("final_success", "final_ended_early", "final_reward")
 
 
 def changes(path: Path) -> str:
@@ -101,13 +108,16 @@ def record(data: RunData, window: int = 200, label: str | None = None) -> dict[s
 
 
 def collect(paths: list[str] | tuple[str, ...], window: int = 200,
-            at: int | None = None, labels: dict[str, str] | None = None) -> dict[str, Any]:
+            at: int | None = None, labels: dict[str, str] | None = None,
+            final: bool = False) -> dict[str, Any]:
     """The study's records: those of every exported study among ``paths`` (``.json`` files,
     as written), then one per run directory (directories are searched), cut at ``at``. An
     exported study added to must have been cut at the same ``at`` and averaged over the same
     ``window``; a run directory whose label an export already has replaces that record, so a
     study can be added to from runs trained at different times. ``labels``: run directory
-    name -> its label in the table (instead of its changes); a name no run has is an error."""
+    name -> its label in the table (instead of its changes); a name no run has is an error.
+    ``final``: each run directory's record also gets its final policy's outcome
+    (:func:`hiddpg.experiments.outcome.final_outcome`; its checkpoint must be at the cut)."""
     exports = [p for p in paths if str(p).endswith(".json")]
     dirs = [p for p in paths if not str(p).endswith(".json")]
     if exports and not dirs and len(exports) == 1:
@@ -137,7 +147,10 @@ def collect(paths: list[str] | tuple[str, ...], window: int = 200,
         except ExperimentError as err:  # a run that has not finished a chunk yet
             print(f"skipped: {err}", file=sys.stderr)
             continue
-        runs.append(record(cut(data, at), window, labels.get(path.name)))
+        rec = record(cut(data, at), window, labels.get(path.name))
+        if final:
+            rec["final"] = outcome.final_outcome(path, rec["episodes"])
+        runs.append(rec)
     fresh = {r["run"] for r in runs}
     study["runs"] = [r for r in study["runs"] if r["run"] not in fresh] + runs
     return study
@@ -176,17 +189,20 @@ def row(rec: dict[str, Any]) -> dict[str, Any]:
         out["critic_error"] = _spread((q - ret).mean(axis=1))
     for column, per_seed in rec["window"].items():
         out[column] = _spread(np.asarray(per_seed))
+    if "final" in rec:
+        out.update(outcome.summary(rec["final"]))
     return out
 
 
 def summarize(paths: list[str] | tuple[str, ...], window: int = 200,
               at: int | None = None, base: str | None = None,
-              labels: dict[str, str] | None = None) -> list[dict[str, Any]]:
+              labels: dict[str, str] | None = None, final: bool = False
+              ) -> list[dict[str, Any]]:
     """One :func:`row` per run of :func:`collect`; where the run labelled ``base`` is among
     them, the others get their difference to it: ``vs_paper`` for the unchanged paper run,
     ``vs_base`` for another base (e.g. ``"quick, agent.choice=actor"``). ``base`` defaults to
-    the one an exported study names, else ``paper``."""
-    study = collect(paths, window, at, labels)
+    the one an exported study names, else ``paper``. ``final``: as :func:`collect`."""
+    study = collect(paths, window, at, labels, final)
     base = base or study.get("base") or "paper"
     rows = [row(r) for r in study["runs"]]
     ref = next((r for r in rows if r["run"] == base and "_scores" in r), None)
@@ -200,7 +216,7 @@ def summarize(paths: list[str] | tuple[str, ...], window: int = 200,
 def markdown(rows: list[dict[str, Any]]) -> str:
     """The rows as a Markdown table (``mean ± std`` cells, blank where a run lacks a column)."""
     columns = ["score", "vs_paper", "vs_base", *EVAL_COLUMNS, "critic_error",
-               *WINDOW_COLUMNS]
+               *FINAL_COLUMNS, *WINDOW_COLUMNS]
     present = [c for c in columns if any(c in r for r in rows)]
     lines = ["| run | episodes | seeds | " + " | ".join(present) + " |",
              "|---|---|---|" + "---|" * len(present)]
@@ -217,6 +233,8 @@ def _cell(r: dict[str, Any], column: str) -> str:
     if column in ("vs_paper", "vs_base"):
         diff, low, high = r[column]
         return f"{diff:+.3g} [{low:+.3g}, {high:+.3g}]"
+    if column in FINAL_COLUMNS[:2]:
+        return f"{r[column][0]}/{r[column][1]}"
     return f"{r[column][0]:.3g} ± {r[column][1]:.2g}"
 
 
@@ -286,6 +304,11 @@ def _main(argv: list[str] | None) -> None:
                         "an exported study names, else paper); --export records it")
     p.add_argument("--line", action="append", default=[], metavar="LABEL=VALUE",
                    help="a horizontal reference line on the plot (repeatable)")
+    p.add_argument("--final", action="store_true",
+                   help="also replay each run directory's final policy from "
+                        "its checkpoint (one noise-free episode per seed; the checkpoint must "
+                        "be at --at) and record where it ends (success, early end, last "
+                        "reward)")
     p.add_argument("--label", action="append", default=[], metavar="NAME=LABEL",
                    help="label the run in directory NAME so in the table, the curves and an "
                         "export (default: its changes; repeatable)")
@@ -305,14 +328,14 @@ def _main(argv: list[str] | None) -> None:
             raise ValueError(f"--line {item!r}: expected LABEL=NUMBER") from None
     source = args.dirs
     if args.export:
-        study = collect(args.dirs, args.window, args.at, labels)
+        study = collect(args.dirs, args.window, args.at, labels, final=args.final)
         if args.base not in (None, "paper"):
             study["base"] = args.base
         args.export.parent.mkdir(parents=True, exist_ok=True)
         args.export.write_text(json.dumps(study, indent=1) + "\n")
         print(f"wrote {args.export}")
-        source, labels = [str(args.export)], {}
-    rows = summarize(source, args.window, args.at, args.base, labels)
+        source, labels, args.final = [str(args.export)], {}, False
+    rows = summarize(source, args.window, args.at, args.base, labels, args.final)
     if args.base is not None and not any(r["run"] == args.base for r in rows):
         raise ValueError(f"--base {args.base!r}: no run has this label; the runs are "
                          f"{[r['run'] for r in rows]}")
