@@ -250,6 +250,7 @@ def plot_curves(paths: list[str] | tuple[str, ...], out: Path, at: int | None = 
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.5))
     levels = list((lines or {}).values())
+    drawn = 0
     for rec in collect(paths, at=at, labels=labels)["runs"]:
         if "eval_env_return" not in rec["eval"]:
             continue
@@ -261,7 +262,10 @@ def plot_curves(paths: list[str] | tuple[str, ...], out: Path, at: int | None = 
         half = (stats.t.ppf(0.975, n - 1) * values.std(axis=0, ddof=1) / np.sqrt(n)
                 if n > 1 else np.zeros_like(mean))
         levels += [float(mean.min()), float(mean.max())]
-        (line,) = ax.plot(episodes, mean, lw=1.2, label=f"{rec['run']} ({n} seeds)")
+        # the colour cycle has ten colours: the next ten runs are dashed, so none look alike
+        (line,) = ax.plot(episodes, mean, lw=1.2, ls=("-", "--", "-.")[drawn // 10 % 3],
+                          label=f"{rec['run']} ({n} seeds)")
+        drawn += 1
         ax.fill_between(episodes, mean - half, mean + half, color=line.get_color(), alpha=0.15)
     for i, (label, value) in enumerate((lines or {}).items()):
         ax.axhline(value, color="k", lw=0.8, ls=("--", ":", "-.")[i % 3], label=label)
