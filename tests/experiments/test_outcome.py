@@ -53,7 +53,7 @@ def arm_run(tmp_path_factory):
     return path
 
 
-def test_the_replayed_episode_is_the_runs_logged_evaluation(arm_run, capsys):
+def test_the_replayed_episode_is_the_runs_logged_evaluation(arm_run):
     final = final_outcome(arm_run, 20)
     assert final["seeds"] == [3, 4] and final["episodes"] == 20
     logged = diagnosis.collect([str(arm_run)])["runs"][0]

@@ -330,7 +330,7 @@ def _main(argv: list[str] | None) -> None:
             lines[label] = float(value)
         except ValueError:
             raise ValueError(f"--line {item!r}: expected LABEL=NUMBER") from None
-    source = args.dirs
+    source, final = args.dirs, args.final
     if args.export:
         study = collect(args.dirs, args.window, args.at, labels, final=args.final)
         if args.base not in (None, "paper"):
@@ -338,8 +338,8 @@ def _main(argv: list[str] | None) -> None:
         args.export.parent.mkdir(parents=True, exist_ok=True)
         args.export.write_text(json.dumps(study, indent=1) + "\n")
         print(f"wrote {args.export}")
-        source, labels, args.final = [str(args.export)], {}, False
-    rows = summarize(source, args.window, args.at, args.base, labels, args.final)
+        source, labels, final = [str(args.export)], {}, False  # the export holds it
+    rows = summarize(source, args.window, args.at, args.base, labels, final)
     if args.base is not None and not any(r["run"] == args.base for r in rows):
         raise ValueError(f"--base {args.base!r}: no run has this label; the runs are "
                          f"{[r['run'] for r in rows]}")

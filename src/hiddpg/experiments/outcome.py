@@ -28,8 +28,6 @@ from typing import Any
 
 import numpy as np
 
-from hiddpg.experiments.arm import outcomes
-
 #: the evaluation key of every outcome (``hiddpg eval``'s default ``--key``)
 EVAL_KEY = 0
 
@@ -43,13 +41,10 @@ def episode_outcomes(traj: dict[str, Any], horizon: int, success_radius: float |
     last = np.maximum(steps - 1, 0)
     final_reward = reward[np.arange(len(last)), last]
     env_return = np.where(alive, reward, 0.0).sum(axis=1)
-    if success_radius is None:
-        success: list = [None] * len(last)
-    else:
-        reached, collided = outcomes(traj, success_radius, horizon)
-        success = (reached & ~collided).tolist()
-    return {"success": [None if s is None else bool(s) for s in success],
-            "ended_early": (steps < horizon).tolist(),
+    ended_early = steps < horizon
+    success = ([None] * len(last) if success_radius is None
+               else ((final_reward > -success_radius) & ~ended_early).tolist())
+    return {"success": success, "ended_early": ended_early.tolist(),
             "final_reward": final_reward.tolist(), "env_return": env_return.tolist()}
 
 
