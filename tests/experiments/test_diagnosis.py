@@ -219,3 +219,31 @@ def test_the_critic_error_is_its_start_value_minus_the_return_it_estimates(tmp_p
     assert r["critic_error"] == pytest.approx((16.5, np.std([30.0, 3.0], ddof=1)))
     header = diagnosis.markdown([r]).splitlines()[0]
     assert "| eval_high_q_start | eval_high_return_discounted | critic_error |" in header
+
+
+def test_only_draws_the_named_runs_in_that_order(tmp_path, capsys):
+    from hiddpg.experiments.diagnosis_plot import curves
+
+    write_run(tmp_path / "runs" / "a", 0.0)
+    write_run(tmp_path / "runs" / "b", -100.0)
+    (tmp_path / "runs" / "sweep.json").write_text(json.dumps({"runs": {
+        "a": {"preset": "paper", "sets": []},
+        "b": {"preset": "paper", "sets": ["agent.high.tau=0.01"]}}}))
+    runs = [str(tmp_path / "runs")]
+    assert [c["run"] for c in curves(runs)] == ["paper", "agent.high.tau=0.01"]
+    (b, a) = curves(runs, only=["agent.high.tau=0.01", "paper"])
+    assert (b["run"], a["run"]) == ("agent.high.tau=0.01", "paper")
+    # seeds 100 and 101 evaluate shift + episode + i: means at 20 and 40, half 12.706 * 0.5
+    assert list(a["episodes"]) == [20, 40]
+    assert a["mean"] == pytest.approx([20.5, 40.5]) and b["mean"] == pytest.approx([-79.5, -59.5])
+    assert a["half"] == pytest.approx([12.706204736 * 0.5] * 2)
+    out = tmp_path / "only.png"
+    assert diagnosis.main(runs + ["--plot", str(out), "--only", "paper"]) == 0
+    assert out.read_bytes().startswith(b"\x89PNG")
+    # the table keeps every run; a label no run has is one line naming the runs, exit 2
+    assert "| agent.high.tau=0.01 |" in capsys.readouterr().out
+    assert diagnosis.main(runs + ["--plot", str(out), "--only", "tau"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["python -m hiddpg.experiments.diagnosis: --only 'tau': no run with an "
+                   "evaluation curve has this label; the runs are ['paper', "
+                   "'agent.high.tau=0.01']"]

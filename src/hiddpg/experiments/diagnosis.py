@@ -29,8 +29,9 @@ committed under ``results/``) gives the same table and curves without the run di
   (``final_reward``), from one noise-free episode per seed replayed from the checkpoint.
 
 ``python -m hiddpg.experiments.diagnosis DIR|EXPORT.json ... [--at EPISODE] [--plot FILE.png]
-[--export FILE.json] [--base LABEL] [--final]`` prints the table (:func:`markdown`) and draws the
-evaluation curves (:func:`plot_curves`); given an exported study and run directories, it
+[--only LABEL ...] [--export FILE.json] [--base LABEL] [--final]`` prints the table
+(:func:`markdown`) and draws the evaluation curves (:mod:`hiddpg.experiments.diagnosis_plot`,
+``--only``: of those runs only); given an exported study and run directories, it
 adds the runs to the study's records (``--export`` the same file to keep them).
 """
 
@@ -45,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from hiddpg.experiments import outcome
+from hiddpg.experiments.diagnosis_plot import plot_curves
 from hiddpg.experiments.rundata import ExperimentError, RunData, discover_runs, load_run
 
 #: evaluations averaged per seed for ``score``
@@ -238,50 +240,6 @@ def _cell(r: dict[str, Any], column: str) -> str:
     return f"{r[column][0]:.3g} ± {r[column][1]:.2g}"
 
 
-def plot_curves(paths: list[str] | tuple[str, ...], out: Path, at: int | None = None,
-                title: str = "", lines: dict[str, float] | None = None,
-                labels: dict[str, str] | None = None) -> Path:
-    """Every run's evaluation curve (environment return, mean over seeds with a 95% t band),
-    cut at ``at``, with horizontal reference ``lines`` (label -> value); written to ``out``."""
-    from scipy import stats
-
-    from hiddpg.experiments.report import pyplot
-
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(8, 4.5))
-    levels = list((lines or {}).values())
-    drawn = 0
-    for rec in collect(paths, at=at, labels=labels)["runs"]:
-        if "eval_env_return" not in rec["eval"]:
-            continue
-        episodes = np.asarray(rec["eval_episodes"])
-        values = np.asarray(rec["eval"]["eval_env_return"])
-        keep = episodes <= (at or episodes[-1])
-        episodes, values = episodes[keep], values[:, keep]
-        mean, n = values.mean(axis=0), values.shape[0]
-        half = (stats.t.ppf(0.975, n - 1) * values.std(axis=0, ddof=1) / np.sqrt(n)
-                if n > 1 else np.zeros_like(mean))
-        levels += [float(mean.min()), float(mean.max())]
-        # the colour cycle has ten colours: the next ten runs are dashed, so none look alike
-        (line,) = ax.plot(episodes, mean, lw=1.2, ls=("-", "--", "-.")[drawn // 10 % 3],
-                          label=f"{rec['run']} ({n} seeds)")
-        drawn += 1
-        ax.fill_between(episodes, mean - half, mean + half, color=line.get_color(), alpha=0.15)
-    for i, (label, value) in enumerate((lines or {}).items()):
-        ax.axhline(value, color="k", lw=0.8, ls=("--", ":", "-.")[i % 3], label=label)
-    if levels:  # the means and reference lines in view; a wide band may leave it
-        span = max(levels) - min(levels) or 1.0
-        ax.set_ylim(min(levels) - 0.1 * span, max(levels) + 0.1 * span)
-    ax.set_xlabel("training episode")
-    ax.set_ylabel("evaluation environment return")
-    ax.set_title(title)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, -0.15))
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=120, bbox_inches="tight")
-    plt.close(fig)
-    return out
-
-
 def main(argv: list[str] | None = None) -> int:
     """The command line; a bad directory, record or ``--line`` is one line on stderr, exit 2."""
     try:
@@ -306,6 +264,9 @@ def _main(argv: list[str] | None) -> None:
     p.add_argument("--base", default=None, metavar="LABEL",
                    help="the run the others are compared with (vs_base; default: the one "
                         "an exported study names, else paper); --export records it")
+    p.add_argument("--only", action="append", default=None, metavar="LABEL",
+                   help="draw only the run of this label (repeatable: in the order drawn); "
+                        "the table keeps every run")
     p.add_argument("--line", action="append", default=[], metavar="LABEL=VALUE",
                    help="a horizontal reference line on the plot (repeatable)")
     p.add_argument("--final", action="store_true",
@@ -345,7 +306,8 @@ def _main(argv: list[str] | None) -> None:
                          f"{[r['run'] for r in rows]}")
     print(markdown(rows))
     if args.plot:
-        print(f"wrote {plot_curves(source, args.plot, args.at, args.title, lines, labels)}")
+        out = plot_curves(source, args.plot, args.at, args.title, lines, labels, args.only)
+        print(f"wrote {out}")
 
 
 if __name__ == "__main__":  # pragma: no cover
