@@ -247,3 +247,6 @@ def test_only_draws_the_named_runs_in_that_order(tmp_path, capsys):
     assert err == ["python -m hiddpg.experiments.diagnosis: --only 'tau': no run with an "
                    "evaluation curve has this label; the runs are ['paper', "
                    "'agent.high.tau=0.01']"]
+    # --only without a plot would choose nothing: one line, exit 2
+    assert diagnosis.main(runs + ["--only", "paper"]) == 2
+    assert "--only 'paper': chooses the runs drawn; give --plot" in capsys.readouterr().err

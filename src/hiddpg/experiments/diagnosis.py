@@ -278,6 +278,8 @@ def _main(argv: list[str] | None) -> None:
                    help="label the run in directory NAME so in the table, the curves and an "
                         "export (default: its changes; repeatable)")
     args = p.parse_args(argv)
+    if args.only and not args.plot:
+        raise ValueError(f"--only {args.only[0]!r}: chooses the runs drawn; give --plot FILE.png")
     labels = {}
     for item in args.label:
         name, sep, label = item.partition("=")
