@@ -112,3 +112,20 @@ def test_a_variant_that_adds_nothing_trains_nothing(tmp_path, capsys, monkeypatc
     assert "adds no change to paper" in capsys.readouterr().out and not out.exists()
     monkeypatch.setitem(variants.VARIANTS, "paper+", ("tau-0.01",))
     assert variants.same_as("paper+") is None
+
+
+MEASURED_SECOND_CANDIDATE = (
+    "agent.eager_high.every_step=true", "agent.low.env_terminal=false", "agent.high.lr=1e-3",
+    "agent.low.lr=1e-3", "agent.high.invert_gradients=true", "agent.low.invert_gradients=true",
+    "agent.high.action_l2=1", "agent.low.action_l2=1")
+
+
+@pytest.mark.parametrize("task", ["PuckTrajectory2", "ArmObstacle"])
+def test_paper_plus_is_the_set_the_diagnosis_measured(task):
+    """HI-DDPG's paper+ is exactly the second candidate of docs/diagnosis.md: the paper preset
+    with the overrides its studies set (studies/paper-plus-puck-seeds.toml and
+    studies/paper-plus-candidate-2.toml), so its measured numbers are paper+'s."""
+    measured = make_config("hi-ddpg", task, "paper", list(MEASURED_SECOND_CANDIDATE))
+    plus = make_config("hi-ddpg", task, "paper+")
+    assert plus.agent == measured.agent
+    assert plus.agent != make_config("hi-ddpg", task, "paper").agent

@@ -99,9 +99,11 @@ CHANGES: dict[str, Change] = {c.name: c for c in (
            _low_through_termination),
 )}
 
-#: The changes of ``paper+``, in the order they are applied: those docs/diagnosis.md shows are
-#: needed (empty while no candidate is shown to help).
-PAPER_PLUS: tuple[str, ...] = ()
+#: The changes of ``paper+``, in the order they are applied: the smallest set that learns both
+#: PuckTrajectory2 and ArmObstacle, each change needed on at least one of them
+#: (docs/diagnosis.md, "How `paper+` is chosen").
+PAPER_PLUS: tuple[str, ...] = ("high-every-step", "lr-1e-3", "invert-gradients", "action-l2",
+                               "low-through-termination")
 
 #: variant name -> its changes.
 VARIANTS: dict[str, tuple[str, ...]] = {"paper": (), "paper+": PAPER_PLUS}
