@@ -217,3 +217,38 @@ def test_result_is_a_frozen_value():
         result.status = FAILED  # type: ignore[misc]
     assert result == RunResult("finished", 20, 1.5, None)
     assert runner.INTERRUPTED == "interrupted"
+
+
+def test_a_stop_after_the_finish_leaves_the_run_finished(reference, tmp_path):
+    """A signal or Ctrl-C that lands after progress.json says finished (before the lock is
+    given up) keeps the run finished; an extended run's earlier finish does not count."""
+    import shutil
+
+    path = tmp_path / "late"
+    shutil.copytree(reference[0], path)
+    before = (path / runs.PROGRESS_FILE).read_bytes()
+    run = runs.Run.open(path)
+    run.acquire()
+    runner.mark_stopped(run, "SIGTERM")
+    assert (path / runs.PROGRESS_FILE).read_bytes() == before
+    assert not run.lock.held
+
+    def interrupt_at_the_end(run, episodes):
+        if episodes == 20:
+            run.write_progress(episodes, 1.0, FINISHED)
+            raise KeyboardInterrupt
+
+    late = tmp_path / "late-ctrl-c"
+    result = train_run(prepare_new(CONFIG, SEEDS, late), make_trainer(CONFIG),
+                       on_chunk=interrupt_at_the_end)
+    assert result.status == FINISHED and result.episodes == 20
+    assert runs.Run.open(late).progress()["status"] == FINISHED
+
+    extended = tmp_path / "extended"
+    shutil.copytree(reference[0], extended)
+    run, trainer, done = open_for_resume(extended, episodes=30)
+    run.update_config(trainer.config)
+    runner.mark_stopped(run, "SIGTERM")
+    progress = runs.Run.open(extended).progress()
+    assert (progress["status"], progress["episodes"], progress["total_episodes"]) == (
+        INTERRUPTED, 20, 30)

@@ -173,6 +173,10 @@ def train_run(run: Run, trainer: Trainer, *, on_chunk: OnChunk | None = None,
             return _train(run, trainer, state, done, wall, on_chunk, reporter)
     except BaseException as err:  # keep the last checkpoint's progress, mark the run
         episodes, wall = _last(run)
+        if _finished(run):  # the interrupt landed after the run was marked finished
+            if isinstance(err, KeyboardInterrupt):
+                return RunResult(FINISHED, episodes, wall)
+            raise
         if isinstance(err, KeyboardInterrupt):
             run.write_progress(episodes, wall, INTERRUPTED, signal="SIGINT",
                                error="KeyboardInterrupt")
@@ -192,17 +196,28 @@ def _last(run: Run) -> tuple[int, float]:
         return run.checkpoint_episodes(), 0.0
 
 
+def _finished(run: Run) -> bool:
+    """Whether progress.json already says the run finished its configured budget (an
+    extended run's earlier ``finished`` does not count)."""
+    try:
+        last = run.progress()
+        return last["status"] == FINISHED and int(last["episodes"]) >= run.config.episodes
+    except (RunFileError, ValueError, TypeError):
+        return False
+
+
 def mark_stopped(run: Run, signal_name: str, *, reporter: Reporter | None = None) -> None:
     """A signal stops the process (:mod:`hiddpg.stopping`): mark the run interrupted at its
     last checkpoint and give its lock up (a stop action; once the lock is given up, a second
-    call does nothing)."""
+    call does nothing). A run already marked finished stays finished."""
     if reporter is not None:
         reporter.close()
     if run.lock is None or not run.lock.held:
         return
-    episodes, wall = _last(run)
-    run.write_progress(episodes, wall, INTERRUPTED, signal=signal_name,
-                       error=f"stopped by {signal_name}")
+    if not _finished(run):
+        episodes, wall = _last(run)
+        run.write_progress(episodes, wall, INTERRUPTED, signal=signal_name,
+                           error=f"stopped by {signal_name}")
     run.release()
 
 
