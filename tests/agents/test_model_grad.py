@@ -1,11 +1,12 @@
-"""The model-based action gradient (paper §II-C, eqs. 6-7; spec §3) and the dynamics models.
+"""The model-based action gradient (paper §II-C, eqs. 6-7; spec §3).
 
 ``model_gradient(value, predict, a)`` must be ``∂V(ŝ')/∂ŝ' · ∂ŝ'/∂a``. It is checked, for both
 levels' forms, against three independent computations written here from the raw flax modules
 (not through :class:`Level`): ``jax.grad`` of the composed function, the explicit chain-rule
 product with ``jax.jacobian``, and central finite differences in float64. Then: how
-:meth:`Level.extra_dq_da` enters the actor update (off for ``λ = 0``, linear in ``λ``), and
-that :class:`DynamicsModel` learns ``ṡ`` of a linear system for ``Δt ≠ 1``.
+:meth:`Level.extra_dq_da` enters the actor update (off for ``λ = 0``, linear in ``λ``). The
+dynamics models are tested in ``test_dynamics_model.py``, the terminal mask in
+``test_model_mask.py``.
 """
 
 from __future__ import annotations
@@ -306,147 +307,3 @@ def test_level_update_with_model_weight_zero_is_the_plain_ddpg_update(kind):
     assert _trees_equal(new_wo.model, state.model)
     assert float(m_wo["model_loss"]) == 0.0
     _trees_close(new_wo.block, new.block)
-
-
-# -- the dynamics model ---------------------------------------------------------------------
-def _linear_system(seed, n_samples=128, dt=0.05):
-    rng = np.random.default_rng(seed)
-    A = 0.5 * rng.normal(size=(N, N))
-    Bm = rng.normal(size=(N, A_LOW))
-    s = rng.uniform(-1, 1, (n_samples, N))
-    a = rng.uniform(-1, 1, (n_samples, A_LOW))
-    s_dot = s @ A.T + a @ Bm.T
-    f32 = lambda x: jnp.asarray(x, jnp.float32)  # noqa: E731
-    return f32(s), f32(a), f32(s + dt * s_dot), f32(s_dot)
-
-
-def _model_state(model: DynamicsModel, seed: int = 0) -> ModelState:
-    """Like ``model.init``, with the hidden layers' fan-in init drawn by numpy."""
-    rng = np.random.default_rng(seed)
-    shapes = jax.eval_shape(model.init, jax.random.PRNGKey(0)).params
-
-    def draw(sd):
-        bound = 1.0 / np.sqrt(sd.shape[0])
-        return jnp.asarray(rng.uniform(-bound, bound, sd.shape) if len(sd.shape) == 2
-                           else np.zeros(sd.shape), jnp.float32)
-
-    params = jax.tree_util.tree_map(draw, shapes)
-    return model.set_learning_rate(ModelState(params, model.optimizer.init(params)), model.lr)
-
-
-def _train(model: DynamicsModel, s, a, s2, steps=1500):
-    state = _model_state(model)
-
-    @jax.jit
-    def run(state):
-        return jax.lax.scan(lambda st, _: model.update(st, s, a, s2), state, None, steps)
-
-    return state, *run(state)
-
-
-def test_dynamics_model_loss_is_the_rate_mse():
-    dt = 0.05
-    s, a, s2, _ = _linear_system(0, 16, dt)
-    model = DynamicsModel(N, A_LOW, HIDDEN, 1e-3, dt)
-    params = _model_state(model, 1).params
-    rate = jax.jit(MLP(HIDDEN, N).apply)(params, jnp.concatenate([s, a], -1))
-    expected = np.mean(np.sum((np.asarray(rate) - np.asarray((s2 - s) / dt)) ** 2, -1))
-    np.testing.assert_allclose(jax.jit(model.loss)(params, s, a, s2), expected, rtol=1e-5)
-    np.testing.assert_allclose(jax.jit(model.predict)(params, s, a), s + dt * rate,
-                               rtol=1e-6, atol=1e-7)
-
-
-def test_dynamics_model_learns_the_rate_of_a_linear_system_for_dt_not_one():
-    dt = 0.05
-    s, a, s2, s_dot = _linear_system(0, dt=dt)
-    model = DynamicsModel(N, A_LOW, HIDDEN, 3e-3, dt)
-    init, trained, losses = _train(model, s, a, s2)
-    losses = np.asarray(losses)
-    assert losses[-1] < 0.01 * losses[0]  # the loss falls by two orders of magnitude
-    assert np.all(np.diff(losses[::100]) < 0)  # and keeps falling
-    # the network output is ṡ (not s' - s = Δt ṡ) ...
-    rate = model.net.apply(trained.params, jnp.concatenate([s, a], -1))
-    rel = lambda x, y: float(jnp.linalg.norm(x - y) / jnp.linalg.norm(y))  # noqa: E731
-    assert rel(rate, s_dot) < 0.05
-    assert rel(rate, dt * s_dot) > 10  # far from the Δt-scaled target
-    # ... and the prediction is s'
-    pred = model.predict(trained.params, s, a)
-    assert rel(pred - s, s2 - s) < 0.05
-    np.testing.assert_allclose(pred, s2, atol=0.05 * dt * float(jnp.abs(s_dot).max()))
-    # the untrained model was far off
-    assert rel(model.predict(init.params, s, a) - s, s2 - s) > 0.5
-
-
-def test_high_level_model_predicts_the_next_state_with_time_scale_one():
-    """M_H predicts s_{i+1} from (s_i, g, T) via the change s_{i+1} - s_i (Δt = 1)."""
-    s, a, _, _ = _linear_system(1)
-    a3 = jnp.concatenate([a, a[:, :1] * a[:, 1:]], -1)  # 3 inputs: goal entries and T
-    W = jnp.asarray(np.random.default_rng(2).normal(size=(N, A_HIGH)), jnp.float32)
-    s2 = 0.9 * s + a3 @ W.T
-    model = DynamicsModel(N, A_HIGH, HIDDEN, 3e-3, 1.0)
-    _, trained, losses = _train(model, s, a3, s2, steps=2000)
-    assert float(losses[-1]) < 0.02 * float(losses[0])
-    pred = model.predict(trained.params, s, a3)
-    assert float(jnp.linalg.norm(pred - s2) / jnp.linalg.norm(s2 - s)) < 0.1
-
-
-def test_model_term_is_masked_where_the_episode_ended():
-    """Spec §3: the model-based term of a transition with ``terminated`` is 0 (no successor
-    value); the others are the unmasked term, and ``model_masked=False`` keeps all."""
-    import jax
-    import jax.numpy as jnp
-    import numpy as np
-
-    from hiddpg.agents.level import Level
-    from hiddpg.configs import LevelConfig
-
-    cfg = LevelConfig(hidden=(16, 16))
-    masked = Level(config=cfg, state_dim=4, context_dim=4, action_dim=2, time_scale=0.1,
-                   model_weight=1.0, use_model=True)
-    plain = Level(config=cfg, state_dim=4, context_dim=4, action_dim=2, time_scale=0.1,
-                  model_weight=1.0, use_model=True, model_masked=False)
-    state = masked.init(jax.random.PRNGKey(0))
-    inputs = jax.random.normal(jax.random.PRNGKey(1), (3, 8))
-    a = jax.random.uniform(jax.random.PRNGKey(2), (3, 2), minval=-1, maxval=1)
-    terminated = jnp.array([True, False, True])
-    full = masked.extra_dq_da(state.block, state.model)(inputs, a)
-    cut = masked.extra_dq_da(state.block, state.model, terminated)(inputs, a)
-    assert float(jnp.abs(full).min()) > 0
-    np.testing.assert_array_equal(cut[1], full[1])
-    np.testing.assert_array_equal(cut[jnp.array([0, 2])], 0.0)
-    assert plain.model_masked is False and masked.model_masked is True
-
-
-def test_level_update_masks_the_model_term_of_terminal_transitions():
-    """One ``Level.update`` on a buffer of terminal transitions: with the mask the actor moves
-    exactly as without a model term (λ = 0); unmasked it moves differently."""
-    import jax
-    import jax.numpy as jnp
-    import numpy as np
-
-    from hiddpg.agents import buffer
-    from hiddpg.agents.level import Level
-    from hiddpg.agents.transition import Transition
-    from hiddpg.configs import LevelConfig
-
-    cfg = LevelConfig(hidden=(16, 16), batch_size=8, buffer_size=8)
-    kw = dict(config=cfg, state_dim=4, context_dim=4, action_dim=2, time_scale=0.1,
-              use_model=True)
-    levels = {"masked": Level(model_weight=1.0, **kw), "none": Level(model_weight=0.0, **kw),
-              "unmasked": Level(model_weight=1.0, model_masked=False, **kw)}
-    state = levels["masked"].init(jax.random.PRNGKey(0))
-    ks = jax.random.split(jax.random.PRNGKey(3), 5)
-    for i in range(8):
-        tr = Transition(obs=jax.random.normal(ks[0] + i, (4,)),
-                        context=jax.random.normal(ks[1] + i, (4,)),
-                        action=jax.random.uniform(ks[2] + i, (2,), minval=-1, maxval=1),
-                        reward=jnp.asarray(-1.0), next_obs=jax.random.normal(ks[3] + i, (4,)),
-                        terminated=jnp.asarray(True))
-        state = state.replace(buffer=buffer.add(state.buffer, tr))
-    actors = {name: level.update(state, jax.random.PRNGKey(7), episode=jnp.asarray(1))[0]
-              .block.actor for name, level in levels.items()}
-    same = jax.tree.map(np.testing.assert_array_equal, actors["masked"], actors["none"])
-    assert same is not None
-    diff = jax.tree.leaves(jax.tree.map(lambda a, b: float(jnp.abs(a - b).max()),
-                                        actors["unmasked"], actors["none"]))
-    assert max(diff) > 0
