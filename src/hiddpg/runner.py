@@ -163,7 +163,8 @@ def train_run(run: Run, trainer: Trainer, *, on_chunk: OnChunk | None = None,
     library use) returns ``interrupted``; under the ``hiddpg`` command a signal stops the
     process through :mod:`hiddpg.stopping`, which marks the run ``interrupted`` with the
     signal's name. Any other exception marks the run ``failed`` and propagates. Either way
-    the run stays resumable from its last checkpoint.
+    the run stays resumable from its last checkpoint; one that lands after the run is marked
+    finished leaves it finished.
     """
     reporter = reporter if reporter is not None else Reporter()
     run.acquire()
