@@ -13,6 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from hi_ddpg_checks import check_episode, check_trajectory
 from hi_ddpg_support import (
     BASE,
     COST,
@@ -24,8 +25,6 @@ from hi_ddpg_support import (
     _random_high_actor,
     _run,
     base_run,
-    check_episode,
-    check_trajectory,
     puck_run,
 )
 

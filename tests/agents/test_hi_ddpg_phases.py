@@ -10,6 +10,7 @@ import dataclasses
 import jax
 import jax.numpy as jnp
 import numpy as np
+from hi_ddpg_checks import check_episode
 from hi_ddpg_support import (
     BASE,
     EPISODES,
@@ -25,7 +26,6 @@ from hi_ddpg_support import (
     _params,
     _run,
     base_run,
-    check_episode,
     puck_agent,
     puck_run,
 )
