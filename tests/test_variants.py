@@ -44,6 +44,8 @@ EXPECTED = {
                 "h-ddpg": ["skill.actor_lr"]},
     "high-every-step": {"ddpg": [], "hi-ddpg": ["eager_high"], "h-ddpg": []},
     "low-through-termination": {"ddpg": [], "hi-ddpg": ["low.env_terminal"], "h-ddpg": []},
+    "episode-end-terminal": {"ddpg": ["end_is_terminal"], "hi-ddpg": ["high.end_is_terminal"],
+                             "h-ddpg": ["skill.end_is_terminal"]},
 }
 
 
@@ -68,6 +70,8 @@ def test_changes_set_the_values_they_name():
     assert get(paper, ["invert-gradients"]).high.invert_gradients is True
     assert get(paper, ["low-through-termination"]).low.env_terminal is False
     assert get(paper, ["low-through-termination"]).high.env_terminal is True
+    ended = get(paper, ["episode-end-terminal"])
+    assert (ended.high.end_is_terminal, ended.low.end_is_terminal) == (True, False)
     # h-DDPG's meta-critic is not an actor-critic block: its rate stays
     h = make_config("h-ddpg", "PuckObstacle", "paper").agent
     assert get(h, ["lr-x5"]).meta == h.meta

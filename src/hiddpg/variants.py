@@ -78,6 +78,13 @@ def _low_through_termination(agent: Any) -> Any:
     return dataclasses.replace(agent, low=dataclasses.replace(agent.low, env_terminal=False))
 
 
+def _episode_end_terminal(agent: Any) -> Any:
+    if isinstance(agent, HIDDPGConfig):  # the low level's reward is intrinsic: it keeps its own
+        return dataclasses.replace(agent, high=dataclasses.replace(agent.high,
+                                                                   end_is_terminal=True))
+    return map_blocks(agent, lambda b: dataclasses.replace(b, end_is_terminal=True))
+
+
 #: Every change the diagnosis measures, by name.
 CHANGES: dict[str, Change] = {c.name: c for c in (
     Change("lr-x5", "learning rates ×5 at every level", _scale_lr(5.0)),
@@ -97,6 +104,10 @@ CHANGES: dict[str, Change] = {c.name: c for c in (
     Change("low-through-termination", "HI-DDPG's low level, whose reward is intrinsic, "
            "bootstraps through the environment's termination (the high level does not)",
            _low_through_termination),
+    Change("episode-end-terminal", "the value of every level that earns the environment's "
+           "reward ends with the episode, at the time limit too (spec §3 bootstraps there; "
+           "the paper's arm rule, §III-B, read for every episode's final step)",
+           _episode_end_terminal),
 )}
 
 #: The changes of ``paper+``, in the order they are applied: the smallest set that learns both
