@@ -170,6 +170,16 @@ def test_labels_name_runs_in_the_table_the_export_and_the_curves(tmp_path, capsy
     assert "is an exported study; it keeps the labels it was exported with" in err[2]
 
 
+def test_a_label_names_a_run_whose_name_holds_an_equals_sign():
+    names = ["hi-ddpg-ArmObstacle-paper-agent.model_masked=false-bf7a88b5", "b"]
+    got = diagnosis.parse_labels([f"{names[0]}=the term unmasked, x=1", "b=y=2"], names)
+    assert got == {names[0]: "the term unmasked, x=1", "b": "y=2"}
+    # an unknown name is the text before the first "=" (collect reports it); no label: an error
+    assert diagnosis.parse_labels(["c=x=1"], names) == {"c": "x=1"}
+    with pytest.raises(ValueError, match="expected NAME=LABEL"):
+        diagnosis.parse_labels([f"{names[0]}="], names)
+
+
 def test_runs_trained_later_are_added_to_an_exported_study(tmp_path, capsys):
     """An export plus new run directories: the export's records, then the new runs' (a label
     the export has is replaced); the table equals the one of all runs read together."""

@@ -240,6 +240,23 @@ def _cell(r: dict[str, Any], column: str) -> str:
     return f"{r[column][0]:.3g} ± {r[column][1]:.2g}"
 
 
+def parse_labels(items: list[str], names: list[str]) -> dict[str, str]:
+    """``--label NAME=LABEL`` items as run directory name -> label. A sweep's run names hold
+    ``=`` (``...-agent.model_masked=false-bf7a88b5``), so ``NAME`` is the longest prefix before
+    an ``=`` that is one of ``names``, else the text before the first ``=`` (which
+    :func:`collect` then reports as no run's name)."""
+    labels = {}
+    for item in items:
+        cuts = [i for i, ch in enumerate(item) if ch == "="]
+        known = [item[:i] for i in cuts if item[:i] in names]
+        name = max(known, key=len) if known else item.partition("=")[0]
+        label = item[len(name) + 1:]
+        if not cuts or not name or not label:
+            raise ValueError(f"--label {item!r}: expected NAME=LABEL (a run directory's name)")
+        labels[name] = label
+    return labels
+
+
 def main(argv: list[str] | None = None) -> int:
     """The command line; a bad directory, record or ``--line`` is one line on stderr, exit 2."""
     try:
@@ -280,12 +297,8 @@ def _main(argv: list[str] | None) -> None:
     args = p.parse_args(argv)
     if args.only and not args.plot:
         raise ValueError(f"--only {args.only[0]!r}: chooses the runs drawn; give --plot FILE.png")
-    labels = {}
-    for item in args.label:
-        name, sep, label = item.partition("=")
-        if not sep or not name or not label:
-            raise ValueError(f"--label {item!r}: expected NAME=LABEL (a run directory's name)")
-        labels[name] = label
+    dirs = [p for p in args.dirs if not str(p).endswith(".json")]
+    labels = parse_labels(args.label, [p.name for p in discover_runs(dirs)] if dirs else [])
     lines = {}
     for item in args.line:
         label, _, value = item.rpartition("=")
