@@ -7,7 +7,7 @@ import functools
 import numpy as np
 import pytest
 
-from hiddpg.experiments.probes import first_segment
+from hiddpg.experiments.probes import end_value, first_segment
 from hiddpg.presets import make_config
 from hiddpg.runs import make_trainer
 from hiddpg.train import eval_keys, seed_keys
@@ -75,3 +75,32 @@ def test_a_given_goal_replaces_the_actors_and_bad_durations_are_refused():
     np.testing.assert_allclose(ref["policy"]["return"], own["policy"]["return"])
     with pytest.raises(ValueError, match=r"durations \[0.5\].*\[1.0, 30.0\]"):
         first_segment(trainer, state, keys, [0.5])
+
+
+def test_the_end_value_starts_at_the_evaluations_first_value_and_ends_where_it_ends():
+    """``q_start`` is the evaluation's own ``high_q_start`` (computed inside the episode);
+    ``q_end`` is the critic at the state the episode ends in: moving the critic's output bias
+    by ``c`` moves both by ``c``, and the episode (PuckObstacle, truncated at its horizon
+    unless the puck hits the obstacle) is the evaluation's."""
+    config = make_config("hi-ddpg", "PuckObstacle", "paper",
+                         ["agent.high.hidden=[16,16]", "agent.low.hidden=[16,16]"])
+    trainer = make_trainer(config)
+    state = trainer.init_seeds(seed_keys(SEEDS))
+    keys = eval_keys(0, SEEDS)
+    metrics, traj = trainer.evaluate_seeds(state, keys)
+    out = end_value(trainer, state, keys)
+    np.testing.assert_allclose(out["q_start"], np.asarray(metrics["high_q_start"]), rtol=1e-6,
+                               atol=1e-6)
+    np.testing.assert_array_equal(out["steps"], np.asarray(traj["alive"]).sum(axis=1))
+    horizon = trainer.env.max_steps(trainer.env_params)
+    np.testing.assert_array_equal(out["ended_early"], out["steps"] < horizon)
+    np.testing.assert_allclose(out["env_return"], np.asarray(metrics["env_return"]), rtol=1e-6)
+    critic = state.agent.high.block.critic
+    bias = critic["params"]["out"]["bias"]
+    moved = {"params": dict(critic["params"], out=dict(critic["params"]["out"], bias=bias + 7.0))}
+    high = state.agent.high.replace(block=state.agent.high.block.replace(critic=moved))
+    shifted = end_value(trainer, state.replace(agent=state.agent.replace(high=high)), keys)
+    np.testing.assert_allclose(shifted["q_end"], out["q_end"] + 7.0, rtol=1e-5, atol=1e-4)
+    np.testing.assert_allclose(shifted["q_start"], out["q_start"] + 7.0, rtol=1e-5, atol=1e-4)
+    with pytest.raises(ValueError, match="end_value probes HI-DDPG runs, not DDPG"):
+        end_value(make_trainer(make_config("ddpg", "PuckObstacle", "paper")), state, keys)

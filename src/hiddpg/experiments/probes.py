@@ -70,3 +70,38 @@ def first_segment(trainer: Any, state: Any, keys: jax.Array, durations: Any,
 
     out = jax.jit(jax.vmap(one))(state.agent, keys)
     return jax.tree.map(np.asarray, out)
+
+
+def end_value(trainer: Any, state: Any, keys: jax.Array) -> dict[str, np.ndarray]:
+    """Per seed, what the high critic believes the noise-free evaluation episode is worth at
+    its two ends: ``q_start``, ``Q_H(s_0, μ_H(s_0))`` (the evaluation's ``high_q_start``), and
+    ``q_end``, ``Q_H(s_T, μ_H(s_T))`` at the state the episode ends in, the value a
+    time-limit bootstrap adds to the last segment's target (spec §3; none where
+    ``end_is_terminal``). Also ``steps``, ``ended_early`` (terminated before the horizon),
+    ``env_return`` and ``last_reward``. On the arm a ``q_end`` near the collision's cost at an
+    end without a collision shows a critic that values going on past the time limit as
+    worse than a collision."""
+    agent, params = trainer.agent, trainer.env_params
+    if not isinstance(agent, HIDDPG):
+        raise ValueError(f"end_value probes HI-DDPG runs, not {type(agent).__name__}")
+    horizon = agent.env.max_steps(params)
+
+    def one(agent_state, key):
+        metrics, traj = agent.evaluate(key, agent_state, params)
+        steps = traj["alive"].sum().astype(jnp.int32)
+        last = jnp.maximum(steps - 1, 0)
+        left = jnp.asarray(horizon) - steps
+
+        def value(obs, steps_left):
+            hobs = agent.choice.inputs(obs, steps_left, horizon)
+            action = agent.choice.policy(agent_state.high, hobs, steps_left)
+            return agent.choice.q(agent_state.high, hobs, action)
+
+        return {"q_start": value(traj["obs"][0], jnp.asarray(horizon)),
+                "q_end": value(traj["next_obs"][last], left), "steps": steps,
+                "ended_early": steps < horizon, "env_return": metrics["env_return"],
+                "last_reward": traj["reward"][last],
+                "eval_high_q_start": metrics["high_q_start"]}
+
+    out = jax.jit(jax.vmap(one))(state.agent, keys)
+    return jax.tree.map(np.asarray, out)
