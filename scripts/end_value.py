@@ -5,11 +5,12 @@ For each seed of a trained HI-DDPG run (its checkpoint): ``Q_H(s_0, μ_H(s_0))``
 and ``Q_H(s_T, μ_H(s_T))`` at the state the episode ends in, the value a time-limit bootstrap
 adds to the last segment's target (:func:`hiddpg.experiments.probes.end_value`), next to the
 episode's length, return and last reward. ``--export`` adds the run's values to a JSON record
-(one entry per run directory, replaced when measured again).
+(one entry per run directory, replaced when measured again) and prints the record's table
+(:func:`hiddpg.experiments.probes.end_value_table`, as docs/diagnosis.md quotes it).
 
 Usage::
 
-    python scripts/end_value.py RUN_DIR [--label LABEL] [--export results/diagnosis/X.json]
+    python scripts/end_value.py RUN_DIR [--label LABEL] [--export results/diagnosis/probes/X.json]
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import argparse
 import json
 from pathlib import Path
 
-from hiddpg.experiments.probes import end_value
+from hiddpg.experiments.probes import end_value, end_value_table
 from hiddpg.runs import Run, make_trainer
 from hiddpg.train import eval_keys
 
@@ -52,6 +53,7 @@ def main() -> None:
         record["runs"] = [r for r in record["runs"] if r["name"] != run.path.name] + [entry]
         path.write_text(json.dumps(record, indent=1) + "\n")
         print(f"wrote {path}")
+        print(end_value_table(json.loads(path.read_text())))
 
 
 if __name__ == "__main__":

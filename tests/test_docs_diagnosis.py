@@ -29,6 +29,20 @@ def test_each_table_is_what_its_records_give(record):
     assert table in DOC.read_text(), f"the table of {record} in docs/diagnosis.md is stale"
 
 
+PROBES = sorted(re.findall(r"results/diagnosis/probes/[\w.-]+\.json", DOC.read_text()))
+
+
+@pytest.mark.parametrize("record", PROBES)
+def test_each_probe_table_is_what_its_record_gives(record):
+    import json
+
+    from hiddpg.experiments.probes import end_value_table
+
+    assert (ROOT / record).is_file(), f"{record} is named in docs/diagnosis.md but missing"
+    table = end_value_table(json.loads((ROOT / record).read_text()))
+    assert table in DOC.read_text(), f"the table of {record} in docs/diagnosis.md is stale"
+
+
 def test_every_change_of_paper_plus_is_a_measured_candidate():
     text = DOC.read_text()
     for name in PAPER_PLUS:

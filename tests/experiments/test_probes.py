@@ -94,6 +94,7 @@ def test_the_end_value_starts_at_the_evaluations_first_value_and_ends_where_it_e
     np.testing.assert_array_equal(out["steps"], np.asarray(traj["alive"]).sum(axis=1))
     horizon = trainer.env.max_steps(trainer.env_params)
     np.testing.assert_array_equal(out["ended_early"], out["steps"] < horizon)
+    np.testing.assert_array_equal(out["goals"], np.asarray(traj["switch"]).sum(axis=1))
     np.testing.assert_allclose(out["env_return"], np.asarray(metrics["env_return"]), rtol=1e-6)
     critic = state.agent.high.block.critic
     bias = critic["params"]["out"]["bias"]

@@ -78,9 +78,9 @@ def end_value(trainer: Any, state: Any, keys: jax.Array) -> dict[str, np.ndarray
     ``q_end``, ``Q_H(s_T, μ_H(s_T))`` at the state the episode ends in, the value a
     time-limit bootstrap adds to the last segment's target (spec §3; none where
     ``end_is_terminal``). Also ``steps``, ``ended_early`` (terminated before the horizon),
-    ``env_return`` and ``last_reward``. On the arm a ``q_end`` near the collision's cost at an
-    end without a collision shows a critic that values going on past the time limit as
-    worse than a collision."""
+    ``goals`` (the goals the episode used), ``env_return`` and ``last_reward``. On the arm a
+    ``q_end`` near the collision's cost at an end without a collision shows a critic that
+    values going on past the time limit as worse than a collision."""
     agent, params = trainer.agent, trainer.env_params
     if not isinstance(agent, HIDDPG):
         raise ValueError(f"end_value probes HI-DDPG runs, not {type(agent).__name__}")
@@ -101,7 +101,22 @@ def end_value(trainer: Any, state: Any, keys: jax.Array) -> dict[str, np.ndarray
                 "q_end": value(traj["next_obs"][last], left), "steps": steps,
                 "ended_early": steps < horizon, "env_return": metrics["env_return"],
                 "last_reward": traj["reward"][last],
+                "goals": metrics["switches"].astype(jnp.int32) + 1,
                 "eval_high_q_start": metrics["high_q_start"]}
 
     out = jax.jit(jax.vmap(one))(state.agent, keys)
     return jax.tree.map(np.asarray, out)
+
+
+def end_value_table(record: dict[str, Any]) -> str:
+    """A record of ``scripts/end_value.py`` as a markdown table, one row per run and seed."""
+    lines = ["| run | episodes | seed | steps | goals | env_return | last_reward | q_start "
+             "| q_end |", "|---|---|---|---|---|---|---|---|---|"]
+    for run in record["runs"]:
+        for seed, v in run["seeds"].items():
+            steps = f"{v['steps']}" + (" (terminated)" if v["ended_early"] else "")
+            lines.append(f"| {run['run']} | {run['episodes']} | {seed} | {steps} "
+                         f"| {v['goals']} "
+                         f"| {v['env_return']:.1f} | {v['last_reward']:.3f} "
+                         f"| {v['q_start']:.1f} | {v['q_end']:.1f} |")
+    return "\n".join(lines)
