@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import json
+import os
 import random
 import signal
 import subprocess
@@ -144,6 +145,9 @@ def test_second_writer_is_refused_and_a_dead_writers_lock_is_taken_over(referenc
     while lock_holder(run_dir) != first.pid and time.monotonic() < deadline:
         time.sleep(0.05)
     assert lock_holder(run_dir) == first.pid
+    # frozen while it holds the lock, so that it cannot finish (and release the lock) however
+    # long the second process takes to start on a loaded machine
+    os.kill(first.pid, signal.SIGSTOP)
     second = start("--resume", str(run_dir))
     _, err = second.communicate(timeout=120)
     assert second.returncode == 1, err
