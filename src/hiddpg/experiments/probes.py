@@ -101,8 +101,7 @@ def end_value(trainer: Any, state: Any, keys: jax.Array) -> dict[str, np.ndarray
                 "q_end": value(traj["next_obs"][last], left), "steps": steps,
                 "ended_early": steps < horizon, "env_return": metrics["env_return"],
                 "last_reward": traj["reward"][last],
-                "goals": metrics["switches"].astype(jnp.int32) + 1,
-                "eval_high_q_start": metrics["high_q_start"]}
+                "goals": metrics["switches"].astype(jnp.int32) + 1}
 
     out = jax.jit(jax.vmap(one))(state.agent, keys)
     return jax.tree.map(np.asarray, out)
