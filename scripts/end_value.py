@@ -30,12 +30,12 @@ def main() -> None:
     parser.add_argument("--label", default=None, help="the run's name in the record")
     parser.add_argument("--export", default=None, help="a JSON record to add the values to")
     args = parser.parse_args()
-    run = Run.open(args.run)
-    trainer = make_trainer(run.config)
-    state, done = run.load_checkpoint(trainer)
     try:
+        run = Run.open(args.run)
+        trainer = make_trainer(run.config)
+        state, done = run.load_checkpoint(trainer)
         out = end_value(trainer, state, eval_keys(0, run.seeds))
-    except ValueError as err:
+    except (FileNotFoundError, ValueError) as err:
         parser.error(str(err))
     print(f"{args.run}: {done} episodes; Q_H at the first and at the last state")
     seeds = {}
