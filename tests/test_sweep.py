@@ -81,6 +81,20 @@ def test_groups_inherit_replace_extend_and_dedupe():
     assert ddpg[0].seeds == (0, 1)
 
 
+def test_a_group_with_an_earlier_config_on_other_seeds_is_a_run_of_its_own():
+    """Groups that differ only in their seeds are two runs, none dropped; the first keeps the
+    plain name, so appending such a group renames no existing run."""
+    base = {"algos": "ddpg", "tasks": "PuckTrajectory1", "presets": "quick",
+            "set": ["episodes=20"]}
+    first = sweep.expand(dict(base, seeds="100-104"))[0]
+    runs_ = sweep.expand(dict(base, group=[{"seeds": "100-104"}, {"seeds": "105-107,109"},
+                                           {"seeds": "100-104"}, {"seeds": "105-107,109"}]))
+    assert [r.seeds for r in runs_] == [(100, 101, 102, 103, 104), (105, 106, 107, 109)]
+    assert runs_[0].name == first.name
+    assert runs_[1].name == f"{first.name}-seeds-105-107_109"
+    assert runs_[0].config == runs_[1].config
+
+
 def test_names_are_deterministic_from_the_config():
     base = {"algos": "ddpg", "tasks": "PuckTrajectory1", "presets": "quick"}
     a = names(dict(base, grid={"agent.tau": [0.01]}))

@@ -18,8 +18,10 @@ A Gymnasium task (``tasks = "Reacher-v5"``, ``gym:<id>``, ``module:Env-v0``) is 
 declare its goal and h-DDPG's skills as ``--goal`` and ``--skills`` do (a group replaces them).
 
 Names are deterministic, ``<algo>-<task>-<preset>[-<key>=<value>...]-<hash>`` with a hash of
-the whole config (seeds are not part of a config). Every config is validated by :func:`expand`
-before anything runs.
+the whole config (seeds are not part of a config). A later group that gives an earlier run's
+config on other seeds is a run of its own, its name suffixed ``-seeds-105-109``; a group that
+gives an earlier run's config and seeds is that run. Every config is validated by
+:func:`expand` before anything runs.
 """
 
 from __future__ import annotations
@@ -129,7 +131,9 @@ def expand(spec: dict[str, Any], source: str = "spec") -> list[SweepRun]:
         except SweepError as err:
             raise SweepError(f"{where}: {err}") from None
         points += _points(merged, where)
-    runs, errors, names = [], {}, set()
+    runs: list[SweepRun] = []
+    errors: dict[str, list[str]] = {}
+    names: dict[str, tuple[int, ...]] = {}  # a run's name -> its seeds
     for i, (algo, task, preset, seeds, sets, grid, goal, skills) in enumerate(points):
         try:
             with declarations_scope():  # a Gymnasium declaration holds for its own run only
@@ -140,11 +144,13 @@ def expand(spec: dict[str, Any], source: str = "spec") -> list[SweepRun]:
             errors.setdefault(str(err), []).append(f"run {i + 1} ({algo} {task} preset "
                                                    f"{preset}{point})")
             continue
-        run = SweepRun(run_name(config, grid, declaration(goal, skills)), algo, config.task, preset,
-                       tuple(sets), seeds, grid, config, goal, skills)
-        if run.name not in names:  # two groups may give the same config: train it once
-            names.add(run.name)
-            runs.append(run)
+        name = run_name(config, grid, declaration(goal, skills))
+        if name in names and names[name] != seeds:  # the same config on other seeds
+            name = f"{name}-seeds-{'_'.join(runner.seed_ranges(seeds))}"
+        if name not in names:  # two groups may give the same config and seeds: train it once
+            names[name] = seeds
+            runs.append(SweepRun(name, algo, config.task, preset, tuple(sets), seeds, grid,
+                                 config, goal, skills))
     if errors:
         raise SweepError(_error_report(errors, len(points)))
     return runs
