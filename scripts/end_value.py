@@ -5,7 +5,7 @@ For each seed of a trained HI-DDPG run (its checkpoint): ``Q_H(s_0, μ_H(s_0))``
 and ``Q_H(s_T, μ_H(s_T))`` at the state the episode ends in, the value a time-limit bootstrap
 adds to the last segment's target (:func:`hiddpg.experiments.probes.end_value`), next to the
 episode's length, return and last reward. ``--export`` adds the run's values to a JSON record
-(one entry per run directory, replaced when measured again) and prints the record's table
+(one entry per label, replaced when measured again) and prints the record's table
 (:func:`hiddpg.experiments.probes.end_value_table`, as docs/diagnosis.md quotes it).
 
 Usage::
@@ -19,7 +19,7 @@ import argparse
 import json
 from pathlib import Path
 
-from hiddpg.experiments.probes import end_value, end_value_table
+from hiddpg.experiments.probes import add_end_values, end_value, end_value_table
 from hiddpg.runs import Run, make_trainer
 from hiddpg.train import eval_keys
 
@@ -50,7 +50,7 @@ def main() -> None:
         record = json.loads(path.read_text()) if path.exists() else {"runs": []}
         entry = {"run": args.label or run.path.name, "name": run.path.name,
                  "episodes": done, "eval_key": 0, "seeds": seeds}
-        record["runs"] = [r for r in record["runs"] if r["name"] != run.path.name] + [entry]
+        record = add_end_values(record, entry)
         path.write_text(json.dumps(record, indent=1) + "\n")
         print(f"wrote {path}")
         print(end_value_table(json.loads(path.read_text())))

@@ -7,7 +7,7 @@ import functools
 import numpy as np
 import pytest
 
-from hiddpg.experiments.probes import end_value, first_segment
+from hiddpg.experiments.probes import add_end_values, end_value, end_value_table, first_segment
 from hiddpg.presets import make_config
 from hiddpg.runs import make_trainer
 from hiddpg.train import eval_keys, seed_keys
@@ -105,3 +105,22 @@ def test_the_end_value_starts_at_the_evaluations_first_value_and_ends_where_it_e
     np.testing.assert_allclose(shifted["q_start"], out["q_start"] + 7.0, rtol=1e-5, atol=1e-4)
     with pytest.raises(ValueError, match="end_value probes HI-DDPG runs, not DDPG"):
         end_value(make_trainer(make_config("ddpg", "PuckObstacle", "paper")), state, keys)
+
+
+def test_an_export_replaces_its_own_label_only():
+    """Two studies' run directories share a name (names hold no seeds): both rows stay."""
+    def entry(label, seed, q):
+        row = {"ended_early": False, "env_return": -14.0, "goals": 4, "last_reward": -0.15,
+               "q_end": q, "q_start": q, "steps": 75}
+        return {"run": label, "name": "hi-ddpg-ArmObstacle-paper+-e3257ee6", "episodes": 2000,
+                "eval_key": 0, "seeds": {str(seed): row}}
+
+    record = add_end_values({"runs": []}, entry("paper+, seeds 200-204", 200, -110.0))
+    record = add_end_values(record, entry("paper+, seeds 105-109", 105, -120.0))
+    assert [r["run"] for r in record["runs"]] == ["paper+, seeds 200-204", "paper+, seeds 105-109"]
+    record = add_end_values(record, entry("paper+, seeds 200-204", 200, -90.0))
+    assert [r["run"] for r in record["runs"]] == ["paper+, seeds 105-109", "paper+, seeds 200-204"]
+    table = end_value_table(record)
+    row = "| paper+, seeds 200-204 | 2000 | 200 | 75 | 4 | -14.0 | -0.150 | -90.0 | -90.0 |"
+    assert row in table
+    assert "-110.0" not in table and "-120.0" in table

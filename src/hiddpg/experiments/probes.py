@@ -107,6 +107,15 @@ def end_value(trainer: Any, state: Any, keys: jax.Array) -> dict[str, np.ndarray
     return jax.tree.map(np.asarray, out)
 
 
+def add_end_values(record: dict[str, Any], entry: dict[str, Any]) -> dict[str, Any]:
+    """``record`` with ``entry`` (one run of ``scripts/end_value.py``) added, replacing the entry
+    of the same label (``run``) and nothing else: run directories of different studies share
+    their names (names do not hold the seeds), so the label is what tells runs apart, as in
+    :mod:`hiddpg.experiments.diagnosis`'s records."""
+    runs = [r for r in record.get("runs", []) if r["run"] != entry["run"]]
+    return {**record, "runs": runs + [entry]}
+
+
 def end_value_table(record: dict[str, Any]) -> str:
     """A record of ``scripts/end_value.py`` as a markdown table, one row per run and seed."""
     lines = ["| run | episodes | seed | steps | goals | env_return | last_reward | q_start "
