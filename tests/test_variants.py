@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import dataclasses
 
+import jax
+import numpy as np
 import pytest
 
 from hiddpg import variants
@@ -124,12 +126,40 @@ MEASURED_SECOND_CANDIDATE = (
     "agent.high.action_l2=1", "agent.low.action_l2=1")
 
 
+#: what studies/paper-plus-arm-seeds.toml adds to paper+ of the time (episode-end-terminal)
+MEASURED_END = ("agent.high.end_is_terminal=true",)
+
+
 @pytest.mark.parametrize("task", ["PuckTrajectory2", "ArmObstacle"])
 def test_paper_plus_is_the_set_the_diagnosis_measured(task):
-    """HI-DDPG's paper+ is exactly the second candidate of docs/diagnosis.md: the paper preset
-    with the overrides its studies set (studies/paper-plus-puck-seeds.toml and
-    studies/paper-plus-candidate-2.toml), so its measured numbers are paper+'s."""
-    measured = make_config("hi-ddpg", task, "paper", list(MEASURED_SECOND_CANDIDATE))
+    """HI-DDPG's paper+ is exactly the second candidate of docs/diagnosis.md (the overrides of
+    studies/paper-plus-puck-seeds.toml and studies/paper-plus-candidate-2.toml) with the high
+    level's value ending at the time limit (studies/paper-plus-arm-seeds.toml), so its
+    measured numbers are paper+'s."""
+    measured = make_config("hi-ddpg", task, "paper",
+                           list(MEASURED_SECOND_CANDIDATE + MEASURED_END))
     plus = make_config("hi-ddpg", task, "paper+")
     assert plus.agent == measured.agent
     assert plus.agent != make_config("hi-ddpg", task, "paper").agent
+
+
+def test_episode_end_terminal_trains_the_same_on_a_trajectory_task():
+    """PuckTrajectory2 terminates at its horizon and never truncates, so paper+'s numbers
+    measured there without `episode-end-terminal` are its numbers with it: bit for bit."""
+    from hiddpg.runs import make_trainer
+    from hiddpg.train import seed_keys
+
+    tiny = ["episodes=6", "eval_every=3", "agent.learning_starts=32",
+            "agent.high_learning_starts=8", "agent.high.batch_size=8", "agent.low.batch_size=8"]
+    out = []
+    for end in ("false", "true"):
+        config = make_config("hi-ddpg", "PuckTrajectory2", "paper",
+                             list(MEASURED_SECOND_CANDIDATE) + tiny
+                             + [f"agent.high.end_is_terminal={end}"])
+        trainer = make_trainer(config)
+        state, train_metrics, _ = trainer.run_chunk_seeds(trainer.init_seeds(seed_keys([0])), 6)
+        out.append((state.agent, train_metrics["return"]))
+    (a, ra), (b, rb) = out
+    assert np.asarray(ra).shape == (1, 6)
+    for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
