@@ -1,6 +1,6 @@
-"""docs/diagnosis.md's tables are what the committed study records give
-(``python -m hiddpg.experiments.diagnosis results/diagnosis/FILE.json``), and every change
-``paper+`` adds is one the page measures."""
+"""The diagnosis pages' tables (docs/diagnosis.md and the pages it lists) are what the
+committed study records give (``python -m hiddpg.experiments.diagnosis
+results/diagnosis/FILE.json``), and every change ``paper+`` adds is one they measure."""
 
 from __future__ import annotations
 
@@ -13,23 +13,31 @@ from hiddpg.experiments import diagnosis
 from hiddpg.variants import CHANGES, PAPER_PLUS
 
 ROOT = Path(__file__).resolve().parents[1]
-DOC = ROOT / "docs" / "diagnosis.md"
-RECORDS = sorted(re.findall(r"results/diagnosis/[\w.-]+\.json", DOC.read_text()))
+PAGES = ["diagnosis.md", "diagnosis-puck.md", "diagnosis-arm.md", "paper-plus.md",
+         "paper-plus-arm.md"]
+TEXT = "\n".join((ROOT / "docs" / page).read_text() for page in PAGES)
+RECORDS = sorted(set(re.findall(r"results/diagnosis/[\w.-]+\.json", TEXT)))
+
+
+def test_the_index_page_links_every_page():
+    index = (ROOT / "docs" / "diagnosis.md").read_text()
+    for page in PAGES[1:]:
+        assert f"]({page})" in index, f"docs/diagnosis.md should link {page}"
 
 
 def test_the_page_names_its_records_and_they_are_committed():
-    assert RECORDS, "docs/diagnosis.md names no results/diagnosis/*.json"
+    assert RECORDS, "the diagnosis pages name no results/diagnosis/*.json"
     for record in RECORDS:
-        assert (ROOT / record).is_file(), f"{record} is named in docs/diagnosis.md but missing"
+        assert (ROOT / record).is_file(), f"{record} is named in the diagnosis pages but missing"
 
 
 @pytest.mark.parametrize("record", RECORDS)
 def test_each_table_is_what_its_records_give(record):
     table = diagnosis.markdown(diagnosis.summarize([str(ROOT / record)]))
-    assert table in DOC.read_text(), f"the table of {record} in docs/diagnosis.md is stale"
+    assert table in TEXT, f"the table of {record} in the diagnosis pages is stale"
 
 
-PROBES = sorted(re.findall(r"results/diagnosis/probes/[\w.-]+\.json", DOC.read_text()))
+PROBES = sorted(set(re.findall(r"results/diagnosis/probes/[\w.-]+\.json", TEXT)))
 
 
 @pytest.mark.parametrize("record", PROBES)
@@ -38,15 +46,14 @@ def test_each_probe_table_is_what_its_record_gives(record):
 
     from hiddpg.experiments.probes import end_value_table
 
-    assert (ROOT / record).is_file(), f"{record} is named in docs/diagnosis.md but missing"
+    assert (ROOT / record).is_file(), f"{record} is named in the diagnosis pages but missing"
     table = end_value_table(json.loads((ROOT / record).read_text()))
-    assert table in DOC.read_text(), f"the table of {record} in docs/diagnosis.md is stale"
+    assert table in TEXT, f"the table of {record} in the diagnosis pages is stale"
 
 
 def test_every_change_of_paper_plus_is_a_measured_candidate():
-    text = DOC.read_text()
     for name in PAPER_PLUS:
-        assert name in CHANGES and f"`{name}`" in text
+        assert name in CHANGES and f"`{name}`" in TEXT
 
 
 FLOORS = [("PuckTrajectory2", "rest"), ("PuckTrajectory2", "random"),
@@ -61,4 +68,4 @@ def test_the_floors_quoted_are_what_the_policies_score(task, policy):
 
     mean, _ = floor_returns(task, policy)
     quoted = f"`floor_returns(\"{task}\", \"{policy}\")` {fmt(mean)}"
-    assert quoted in DOC.read_text(), f"docs/diagnosis.md should quote {quoted}"
+    assert quoted in TEXT, f"the diagnosis pages should quote {quoted}"

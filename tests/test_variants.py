@@ -132,7 +132,7 @@ MEASURED_END = ("agent.high.end_is_terminal=true",)
 
 @pytest.mark.parametrize("task", ["PuckTrajectory2", "ArmObstacle"])
 def test_paper_plus_is_the_set_the_diagnosis_measured(task):
-    """HI-DDPG's paper+ is exactly the second candidate of docs/diagnosis.md (the overrides of
+    """HI-DDPG's paper+ is exactly the second candidate of docs/diagnosis-puck.md (the overrides of
     studies/paper-plus-puck-seeds.toml and studies/paper-plus-candidate-2.toml) with the high
     level's value ending at the time limit (studies/paper-plus-arm-seeds.toml), so its
     measured numbers are paper+'s."""

@@ -112,8 +112,8 @@ CHANGES: dict[str, Change] = {c.name: c for c in (
 
 #: The changes of ``paper+``, in the order they are applied: the smallest set that learns both
 #: PuckTrajectory2 and ArmObstacle, each change needed on at least one of them
-#: (docs/diagnosis.md, "How `paper+` is chosen"), and ``episode-end-terminal``, which removes
-#: the arm's late collisions without a loss in score (docs/diagnosis.md, "Why `paper+` collides
+#: (docs/paper-plus.md, "How `paper+` is chosen"), and ``episode-end-terminal``, which removes
+#: the arm's late collisions without a loss in score (docs/paper-plus-arm.md, "Why `paper+` collides
 #: late on the arm").
 PAPER_PLUS: tuple[str, ...] = ("high-every-step", "lr-1e-3", "invert-gradients", "action-l2",
                                "low-through-termination", "episode-end-terminal")
