@@ -1,5 +1,5 @@
 """``--preset paper`` is the paper and nothing else: every value below is the paper's or a
-tagged spec decision (docs/algorithms.md, "The paper preset"), written out here independently
+tagged spec decision (docs/hyperparameters.md, "The paper preset"), written out here independently
 of src/hiddpg/presets.py, and no stabiliser or extension is on."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The stabilised configuration's per-task decisions, as the quick preset carries them
-(docs/algorithms.md, "Decisions that make learning work"); the paper preset has none of them
+(docs/hyperparameters.md, "Decisions that make learning work"); the paper preset has none of them
 (tests/test_paper_preset.py)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""docs/algorithms.md, "HI-DDPG on your own environment": its environment block is
+"""docs/usage.md, "HI-DDPG on your own environment": its environment block is
 tests/user_env/slider.py, and its Python and shell blocks run in fresh interpreters."""
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ SECTION = "## HI-DDPG on your own environment"
 
 def blocks() -> list[tuple[str, str]]:
     """The section's fenced code blocks as ``(language, code)``."""
-    text = (ROOT / "docs" / "algorithms.md").read_text()
+    text = (ROOT / "docs" / "usage.md").read_text()
     section = text[text.index(SECTION):]
     end = re.search(r"^## ", section[len(SECTION):], re.M)
     section = section[: len(SECTION) + end.start()] if end else section

@@ -2,12 +2,12 @@
 
 * ``paper``: the paper's algorithm and hyper-parameters for the task's family (puck or arm; a
   user's ``custom`` task gets the puck values), the spec's decisions where the paper is silent,
-  and nothing else: no stabiliser, no extension (docs/algorithms.md, "The paper preset");
+  and nothing else: no stabiliser, no extension (docs/hyperparameters.md, "The paper preset");
 * ``paper+``: ``paper`` plus the generic changes of :data:`hiddpg.variants.PAPER_PLUS`, built
   in :mod:`hiddpg.variants`, on the paper's budget;
 * ``quick``: small networks and budgets on top of the stabilised configuration
   (:func:`ddpg_stable`, ...: the paper's values plus the stabilisers and per-task choices of
-  docs/algorithms.md, "Decisions that make learning work"), for the README's main job, CI and
+  docs/hyperparameters.md, "Decisions that make learning work"), for the README's main job, CI and
   smoke studies.
 
 Each algorithm names its preset builders (``ddpg_paper``, ``hi_ddpg_quick``, ...) in
@@ -44,7 +44,7 @@ PRESETS = ("paper", "paper+", "quick")
 BUDGET_OF = {"paper+": "paper"}
 
 #: Stabilisers of the stabilised configuration's actors: without them ``tanh`` saturates within
-#: a few hundred episodes [decision; docs/algorithms.md, "Decisions that make learning work"].
+#: a few hundred episodes [decision; docs/hyperparameters.md, "Decisions that make learning work"].
 STABILIZE = {"tau": 0.01, "action_l2": 1.0}
 
 
@@ -64,7 +64,7 @@ def task_family(task: str) -> str:
 
 #: Tasks that terminate (collisions): critics on the environment reward do not bootstrap at the
 #: time limit, and HI-DDPG's low level (intrinsic reward only) bootstraps through collisions
-#: [decision; docs/algorithms.md].
+#: [decision; docs/hyperparameters.md].
 TERMINATING_TASKS = ("PuckObstacle", "ArmObstacle")
 
 #: No action penalty on the arm: its unit action maps to activations in [0, 1], so ``|a|^2``
@@ -72,7 +72,7 @@ TERMINATING_TASKS = ("PuckObstacle", "ArmObstacle")
 ARM_ACTION_L2 = 0.0
 
 #: Tasks whose high-level noise falls linearly to 0 over the run: goals drawn near the obstacle
-#: collide and blur the high critic's values of the target [decision; docs/algorithms.md].
+#: collide and blur the high critic's values of the target [decision; docs/hyperparameters.md].
 DECAYING_HIGH_NOISE_TASKS = ("ArmObstacle",)
 
 #: The trajectory tasks: HI-DDPG pays a switch cost and holds goals there [paper, decision].

@@ -146,7 +146,7 @@ def test_the_target_values_the_next_state_by_the_online_choice_and_the_target_ne
 def test_with_the_reference_low_level_it_learns_the_reference_plan_of_puck_trajectory_2():
     """The high level alone (the puck's LQR controller as the low level): two goals near the
     reference's and one switch, where the actor's duration keeps one goal (why the critic picks
-    ``T``: docs/algorithms.md, "Decisions that make learning work").
+    ``T``: docs/hyperparameters.md, "Decisions that make learning work").
     The setting was chosen with the reward's ``tracking_weight = 1``, which this test keeps;
     with the spec's weight 2 the same seeds switch at the right step but put the second goal
     0.34 from the reference."""

@@ -128,7 +128,7 @@ BUILTIN_TASKS = frozenset(TASKS)
 def register_task(name: str, entry: Any, *, family: str = "custom", skills: Any = None,
                   summary: str = "", obs_bounds: Any = None) -> TaskSpec:
     """Register a task so that presets, ``make_config``, the CLI, Gymnasium
-    (``hiddpg/<name>-v0``) and iLQR know it; see docs/algorithms.md.
+    (``hiddpg/<name>-v0``) and iLQR know it; see docs/usage.md.
 
     Args:
         name: the task's name, e.g. ``"Slider"`` (letters, digits, ``_``, ``.``, ``-``).

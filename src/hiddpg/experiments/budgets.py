@@ -59,7 +59,7 @@ class Variant:
 
 REPRODUCE_VARIANTS: dict[str, Variant] = {v.name: v for v in (
     Variant("quick", "quick", "the quick preset (the stabilised configuration with small "
-            "networks; docs/algorithms.md)"),
+            "networks; docs/hyperparameters.md)"),
     Variant("paper", "paper", "the paper as written"),
     Variant("paper+", "paper+", "the paper plus the changes of docs/diagnosis.md"),
     Variant("extended", "quick",
