@@ -3,8 +3,8 @@
 A variant is data: the ``paper`` preset plus a tuple of named changes. Each :class:`Change`
 is generic (it names a field of every actor-critic block, or of HI-DDPG's schedule, never a
 task) and says in one line what it sets. ``paper`` adds nothing; ``paper+`` adds
-only the changes the diagnosis of the exact preset shows are needed (docs/diagnosis.md), for
-every algorithm, so the same words describe it on every task.
+only the changes the diagnosis of the exact preset shows are needed (docs/paper-plus.md),
+for every algorithm, so the same words describe it on every task.
 
 ``hiddpg train ALGO TASK --preset paper+`` builds ``paper+``'s config; :data:`CHANGES` holds
 every candidate the diagnosis measured, so a study can ask for one of them by name

@@ -63,7 +63,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="quick (minutes, default) or paper (15 seeds, hours; resumable)")
     p.add_argument("--variant", choices=list(REPRODUCE_VARIANTS), default=None,
                    help="what to train: quick, paper (the paper as written), paper+ (the paper "
-                        "plus docs/diagnosis.md's changes) or extended (default: quick at "
+                        "plus docs/paper-plus.md's changes) or extended (default: quick at "
                         "quick scale, paper at paper scale)")
     p.add_argument("--seeds", type=int, default=None,
                    help="runs per method (seeds 0..N-1; default: the scale's)")

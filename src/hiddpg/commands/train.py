@@ -84,7 +84,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="training episodes per seed (default: the preset's)")
     p.add_argument("--preset", "--variant", dest="preset", default=None,
                    help="quick (default: minutes), paper (the paper as written, its budget: "
-                   "hours) or paper+ (the paper plus the changes of docs/diagnosis.md)")
+                   "hours) or paper+ (the paper plus the changes of docs/paper-plus.md)")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                    help="override a config field, e.g. agent.hidden=[64,64] (repeatable)")
     p.add_argument("--out", default="runs", help="parent directory of runs (default runs/)")

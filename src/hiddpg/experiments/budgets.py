@@ -61,7 +61,7 @@ REPRODUCE_VARIANTS: dict[str, Variant] = {v.name: v for v in (
     Variant("quick", "quick", "the quick preset (the stabilised configuration with small "
             "networks; docs/hyperparameters.md)"),
     Variant("paper", "paper", "the paper as written"),
-    Variant("paper+", "paper+", "the paper plus the changes of docs/diagnosis.md"),
+    Variant("paper+", "paper+", "the paper plus the changes of docs/paper-plus.md"),
     Variant("extended", "quick",
             "the quick preset plus, for HI-DDPG, the critic-chosen durations, hindsight goals "
             "and a rest term without the model-based gradient on the trajectory tasks (6000 "

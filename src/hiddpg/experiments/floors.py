@@ -7,7 +7,8 @@ returns the mean and standard deviation of the environment return over ``episode
 * ``random``: an action drawn uniformly from the action box at every step.
 
 A learned policy that scores below both has learned something worse than doing nothing.
-docs/diagnosis.md quotes these numbers; ``tests/test_docs_diagnosis.py`` recomputes them.
+The diagnosis pages (docs/diagnosis.md, diagnosis-arm.md) quote these numbers;
+``tests/test_docs_diagnosis.py`` recomputes them.
 """
 
 from __future__ import annotations
