@@ -282,6 +282,13 @@ def main(argv: list[str] | None = None) -> int:
     if a.tiny:
         a.hidden = [16, 16] if a.hidden == [300, 300] else a.hidden
     out = a.out or Path("results/gym-demo") / a.env
+    if any(m in SB3 for m in a.methods):
+        try:
+            import stable_baselines3  # noqa: F401
+        except ImportError:
+            p.error("--methods includes " + ", ".join(m for m in a.methods if m in SB3)
+                    + ", which needs stable-baselines3: pip install -e \".[bench]\" (or "
+                    "leave them out of --methods)")
     from hiddpg.host import make_host_env
 
     horizon = make_host_env("gym:" + env_id).horizon

@@ -57,3 +57,23 @@ def test_parts_evaluated_at_other_steps_are_refused(tmp_path):
     _ours(tmp_path, "ddpg", [1], [(0, [[-1]]), (40, [[-1]])])
     with pytest.raises(SystemExit, match="evaluated at other steps"):
         curves(tmp_path, ["ddpg"])
+
+
+def test_the_demo_names_the_missing_extra_instead_of_a_traceback(tmp_path):
+    """SB3 methods asked for without stable-baselines3: a usage error naming the extra, before
+    anything is trained or probed (stable-baselines3 hidden from the child process)."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    hide = tmp_path / "hide"
+    hide.mkdir()
+    (hide / "sitecustomize.py").write_text("import sys\nsys.modules['stable_baselines3'] = None\n")
+    env = {**__import__("os").environ, "PYTHONPATH": str(hide)}
+    proc = subprocess.run(
+        [sys.executable, str(root / "benchmarks" / "gym_demo.py"), "--env", "Reacher-v5",
+         "--estimate-only", "--methods", "sb3-td3", "--out", str(tmp_path / "out")],
+        capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    assert "Traceback" not in proc.stderr
+    assert "sb3-td3" in proc.stderr and '.[bench]' in proc.stderr
+    assert not (tmp_path / "out").exists()
