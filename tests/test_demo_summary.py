@@ -4,6 +4,8 @@ and single seeds (SB3) into one curve per method, and its table."""
 from __future__ import annotations
 
 import json
+import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -62,13 +64,11 @@ def test_parts_evaluated_at_other_steps_are_refused(tmp_path):
 def test_the_demo_names_the_missing_extra_instead_of_a_traceback(tmp_path):
     """SB3 methods asked for without stable-baselines3: a usage error naming the extra, before
     anything is trained or probed (stable-baselines3 hidden from the child process)."""
-    import subprocess
-
     root = Path(__file__).resolve().parents[1]
     hide = tmp_path / "hide"
     hide.mkdir()
     (hide / "sitecustomize.py").write_text("import sys\nsys.modules['stable_baselines3'] = None\n")
-    env = {**__import__("os").environ, "PYTHONPATH": str(hide)}
+    env = {**os.environ, "PYTHONPATH": str(hide)}
     proc = subprocess.run(
         [sys.executable, str(root / "benchmarks" / "gym_demo.py"), "--env", "Reacher-v5",
          "--estimate-only", "--methods", "sb3-td3", "--out", str(tmp_path / "out")],
