@@ -62,27 +62,36 @@ def _meta(ctx, algo, task, seeds, episodes, wall_time, status="finished"):
 
 
 def test_what_is_left_is_counted_from_the_artifacts_at_the_output_s_own_rate(tmp_path):
-    """PT2 whole, PT1 seeds 0-4 (3600 s for 5 x 3000 x 30 steps: 125 steps/s), PT3 unfinished:
-    the rest is what the other seeds take at that rate; DDPG, with no run of its own, at the
-    rate of all runs (here the same 125 steps/s)."""
+    """PT2 whole (3 h for 15 x 3000 x 30 steps: 125 steps/s), PT1 seeds 0-4 (1 h for
+    5 x 3000 x 30: 125 steps/s), PT3 unfinished, the arm's HI-DDPG seeds 0-4 at 50 steps/s:
+    each run's rest at its own rate; PT3, with none of its own, at HI-DDPG's other runs'
+    (their steps over their seconds, about 79 steps/s); DDPG, with no run, at all runs'."""
     from hiddpg.experiments.schedule import left, left_table
 
     ctx = Context(tmp_path, scale="paper", variant="paper")
     _meta(ctx, "hi-ddpg", "PuckTrajectory2", list(range(15)), 3000, 3 * 3600.0)
     _meta(ctx, "hi-ddpg", "PuckTrajectory1", list(range(5)), 3000, 3600.0)
     _meta(ctx, "hi-ddpg", "PuckTrajectory3", list(range(15)), 1000, 900.0, status="running")
+    _meta(ctx, "hi-ddpg", "ArmObstacle", list(range(5)), 3000, 5 * 3000 * 75 / 50)
     runs = {(r.algo, r.task): r for r in left(ctx)}
     assert len(runs) == 11
     assert runs["hi-ddpg", "PuckTrajectory2"].steps_left == 0
     pt1 = runs["hi-ddpg", "PuckTrajectory1"]
     assert pt1.held == tuple(range(5)) and pt1.steps_left == 10 * 3000 * 30
-    assert pt1.hours == pytest.approx(2.0) and pt1.rate_of == "hi-ddpg"
+    assert pt1.hours == pytest.approx(2.0) and pt1.rate_of == "run"
     pt3 = runs["hi-ddpg", "PuckTrajectory3"]  # an unfinished artifact holds nothing yet
-    assert pt3.held == () and pt3.hours == pytest.approx(3.0)
+    rate = (20 * 3000 * 30 + 5 * 3000 * 75) / (4 * 3600 + 5 * 3000 * 75 / 50)
+    assert pt3.held == () and pt3.rate_of == "hi-ddpg"
+    assert pt3.hours == pytest.approx(15 * 3000 * 30 / rate / 3600)
+    arm = runs["hi-ddpg", "ArmObstacle"]
+    assert arm.rate_of == "run" and arm.hours == pytest.approx(10 * 3000 * 75 / 50 / 3600)
     ddpg = runs["ddpg", "ArmObstacle"]
-    assert ddpg.rate_of == "all" and ddpg.hours == pytest.approx(15 * 3000 * 75 / 125 / 3600)
+    assert ddpg.rate_of == "all" and ddpg.hours == pytest.approx(15 * 3000 * 75 / rate / 3600)
     table = left_table(list(runs.values())).splitlines()
     assert "| hi-ddpg on PuckTrajectory1 | 15 | 0-4 | 900,000 | 2.0 |" in table
+    assert "| hi-ddpg on PuckTrajectory3 | 15 | - | 1,350,000 | 4.7 (rate of hi-ddpg on other " \
+        "tasks) |" in table
+    assert "| ddpg on ArmObstacle | 15 | - | 3,375,000 | 11.8 (rate of all runs) |" in table
     assert table[-1].startswith(f"| total | | | {sum(r.steps_left for r in runs.values()):,} |")
     # an output with nothing finished has no rate; one with everything finished has nothing left
     fresh = left(Context(tmp_path / "fresh", scale="paper", variant="paper"))

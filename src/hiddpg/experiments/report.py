@@ -105,8 +105,11 @@ def runs_table(out: Path) -> list[str]:
 LEFT_NOTE = ("What every figure still needs: per run, the seeds its artifact holds finished, the "
              "environment steps the others take (seeds x episodes x horizon: an upper bound where "
              "episodes end early) and the hours they would take at this output's measured rate "
-             "(its finished runs of the same algorithm, or of all algorithms where that one has "
-             "none yet; on this output's machine).")
+             "(the run's own finished seeds; else the same algorithm's finished runs on other "
+             "tasks, whose horizons and networks may differ; else all finished runs; on this "
+             "output's machine). h-DDPG updates its four skills at every step, so its steps cost "
+             "several times DDPG's (docs/performance.md): the rate of other algorithms "
+             "underestimates its hours.")
 
 
 def write_report(ctx: Context, invocation_s: float | None = None) -> Path:

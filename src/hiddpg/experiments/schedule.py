@@ -121,22 +121,23 @@ class LeftRun:
     hours: float | None
     """At the rate of the output's finished runs of ``algo`` (``None``: none finished yet)."""
     rate_of: str
-    """Whose rate ``hours`` uses: ``algo``, ``"all"`` (every finished run's) or ``""``."""
+    """Whose rate ``hours`` uses: ``"run"`` (this algorithm on this task), ``algo`` (its runs
+    on other tasks), ``"all"`` (every finished run's) or ``""`` (none)."""
 
 
 def left(ctx: Context) -> list[LeftRun]:
     """Every run of every figure (:data:`CHEAP_FIRST`) with the seeds its artifact holds
     finished and what the others cost. A run's steps are ``seeds x episodes x horizon`` (an
     upper bound where episodes end early); its rate is the output's own, measured: the steps of
-    its finished artifacts of the same algorithm over their training time (all algorithms'
-    where that one has none yet)."""
+    its own finished seeds over their training time, else of the same algorithm's finished
+    artifacts on other tasks (whose horizon and networks may differ), else of all algorithms'."""
     from hiddpg.envs.registry import make
     from hiddpg.experiments.artifacts import read_meta
 
     order: list[tuple[str, str]] = []
     for figure in CHEAP_FIRST:
         order += [key for key in figure_runs(ctx, figure) if key not in order]
-    rows, measured = [], {}
+    rows, measured, own = [], {}, {}
     for algo, task in order:
         config = ctx.config(algo, task)
         env, params = make(task)
@@ -146,16 +147,17 @@ def left(ctx: Context) -> list[LeftRun]:
             meta = read_meta(artifact)
             if meta.get("status") == "finished" and meta.get("episodes", 0) >= config.episodes:
                 held = tuple(meta["seeds"])
+                own[algo, task] = (per_seed * len(held), float(meta.get("wall_time") or 0.0))
                 steps, seconds = measured.get(algo, (0, 0.0))
-                measured[algo] = (steps + per_seed * len(held),
-                                  seconds + float(meta.get("wall_time") or 0.0))
+                measured[algo] = (steps + own[algo, task][0], seconds + own[algo, task][1])
         planned = ctx.seeds or ctx.budget(task).seeds
         rows.append((algo, task, planned, held, per_seed * len(set(range(planned)) - set(held))))
     everything = (sum(s for s, _ in measured.values()), sum(t for _, t in measured.values()))
     out = []
     for algo, task, planned, held, steps in rows:
-        steps_done, seconds = measured.get(algo, (0, 0.0))
-        rate_of = algo
+        (steps_done, seconds), rate_of = own.get((algo, task), (0, 0.0)), "run"
+        if not seconds:
+            (steps_done, seconds), rate_of = measured.get(algo, (0, 0.0)), algo
         if not seconds:
             (steps_done, seconds), rate_of = everything, "all"
         hours = steps / (steps_done / seconds) / 3600 if seconds and steps_done else None
@@ -175,13 +177,20 @@ def left_table(runs: list[LeftRun]) -> str:
     for r in runs:
         held = ", ".join(seed_ranges(list(r.held))) if r.held else "-"
         hours = ("0" if not r.steps_left else "-" if r.hours is None else
-                 _hours(r.hours) + (" (rate of all runs)" if r.rate_of == "all" else ""))
+                 _hours(r.hours) + _whose(r))
         rows.append(f"| {r.algo} on {r.task} | {r.planned} | {held} | {r.steps_left:,} | "
                     f"{hours} |")
     known = [r.hours for r in runs if r.hours is not None]
     total = _hours(sum(known)) if len(known) == len(runs) else "-"
     rows.append(f"| total | | | {sum(r.steps_left for r in runs):,} | {total} |")
     return "\n".join(rows)
+
+
+def _whose(r: LeftRun) -> str:
+    """Whose rate an estimate uses, where it is not the run's own."""
+    if r.rate_of == "all":
+        return " (rate of all runs)"
+    return "" if r.rate_of == "run" else f" (rate of {r.algo} on other tasks)"
 
 
 def _hours(h: float) -> str:
