@@ -45,9 +45,12 @@ def test_each_probe_table_is_what_its_record_gives(record):
     import json
 
     from hiddpg.experiments.probes import end_value_table
+    from hiddpg.experiments.saturation import saturation_table
 
     assert (ROOT / record).is_file(), f"{record} is named in the diagnosis pages but missing"
-    table = end_value_table(json.loads((ROOT / record).read_text()))
+    data = json.loads((ROOT / record).read_text())
+    first = next(iter(data["runs"][0]["seeds"].values()))
+    table = (saturation_table if "bound_share" in first else end_value_table)(data)
     assert table in TEXT, f"the table of {record} in the diagnosis pages is stale"
 
 
