@@ -21,7 +21,9 @@ part and the curves and table merge the finished parts.
 SB3: ``DDPG`` and ``TD3`` with our networks (``--hidden``), batch (64), replay (100,000),
 random steps before learning (DDPG's ``learning_starts``), discount (0.99) and Gaussian action
 noise of 0.1 of the half range (our OU noise's scale); their own learning rates (1e-3) and
-tau (0.005); one seed after another, each seed's record written when it finishes.
+tau (0.005); one torch thread (``SB3_THREADS``: two seed ranges then run side by side on two
+cores, and the per-CPU-second rate counts no idle spinning of a second thread); one seed after
+another, each seed's record written when it finishes.
 
 Written under ``OUT`` (default ``results/gym-demo/ENV``): ``records/METHOD/seeds-0-4.json``
 (ours; SB3's ``records/METHOD/seed0.json``: the evaluation curve of every seed, the config and
@@ -62,6 +64,7 @@ from hiddpg.host.catalog import ELBOW_ENV, ELBOW_ID  # noqa: E402
 
 ENVS = {"Reacher-v5": ("Reacher-v5", 2000, 100), ELBOW_ID: (ELBOW_ENV, 1000, 50)}
 SB3 = ("sb3-ddpg", "sb3-td3")
+SB3_THREADS = 1  # torch threads of an SB3 run (see above)
 EVAL_KEY, BATCH, BUFFER = 10_000, 64, 100_000
 
 
@@ -177,7 +180,10 @@ def run_ours(algo: str, a: argparse.Namespace, out: Path, horizon: int) -> None:
 def run_sb3(method: str, a: argparse.Namespace, out: Path, horizon: int) -> None:
     import gymnasium as gym
     import stable_baselines3 as sb3
+    import torch
     from stable_baselines3.common.callbacks import BaseCallback
+
+    torch.set_num_threads(SB3_THREADS)
     from stable_baselines3.common.noise import NormalActionNoise
 
     p, env_id = sb3_params(a, "gym:" + ENVS[a.env][0]), ENVS[a.env][0]
@@ -219,6 +225,7 @@ def run_sb3(method: str, a: argparse.Namespace, out: Path, horizon: int) -> None
         start = time.perf_counter()
         model.learn(total_timesteps=a.episodes * horizon, callback=Every())
         write(path, {"method": method, "env": a.env, "seed": seed, "evals": evals, "params": p,
+                     "torch_threads": torch.get_num_threads(),
                      "wall_s": time.perf_counter() - start, "versions": versions(),
                      "eval_reset_seeds": reset_seeds})
         print(f"{method} seed {seed}: {evals[-1]['returns']}", flush=True)
@@ -232,7 +239,9 @@ def probe(method: str, a: argparse.Namespace, horizon: int) -> float:
     if method in SB3:
         import gymnasium as gym
         import stable_baselines3 as sb3
+        import torch
 
+        torch.set_num_threads(SB3_THREADS)
         p = sb3_params(a, task)
         model = getattr(sb3, method[4:].upper())(
             "MlpPolicy", gym.make(ENVS[a.env][0]), batch_size=p["batch_size"],
