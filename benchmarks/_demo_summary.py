@@ -44,32 +44,55 @@ def curves(out: Path, methods: list[str]) -> dict[str, tuple[np.ndarray, np.ndar
     return found
 
 
-def summarize(out: Path, methods: list[str], title: str) -> None:
+def table(found: dict[str, tuple[np.ndarray, np.ndarray, list]]) -> str:
+    """:func:`curves`' final returns as a markdown table: per method its seeds, the steps of
+    its last evaluation, the mean +- std over seeds of each seed's last evaluation (the mean of
+    its evaluation episodes) and, with two seeds or more on both sides, the Welch 95% interval
+    of its difference to SB3 TD3's."""
     from hiddpg.experiments.diagnosis import welch_interval
-    from hiddpg.experiments.report import pyplot
     from hiddpg.runner import seed_ranges
 
-    found = curves(out, methods)
-    if not found:
-        return
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(7, 4))
     lines = ["| method | seeds | env steps | final return (mean ± std) | vs SB3 TD3: "
              "difference [Welch 95%] |", "|---|---|---|---|---|"]
     base = found.get(BASELINE, (None, None, None))[1]
     for m, (steps, values, seeds) in found.items():
-        mean, std = values.mean(0), values.std(0, ddof=1) if len(values) > 1 else 0 * values[0]
-        (line,) = ax.plot(steps, mean, label=f"{m} ({len(values)} seeds)")
-        ax.fill_between(steps, mean - std, mean + std, color=line.get_color(), alpha=0.15)
         final, vs = values[:, -1], ""
         if base is not None and m != BASELINE and len(final) > 1 and len(base) > 1:
             d, lo, hi = welch_interval(final, base[:, -1])
             vs = f"{d:+.3g} [{lo:+.3g}, {hi:+.3g}]"
         lines.append(f"| {m} | {','.join(seed_ranges(seeds))} | {steps[-1]} | {final.mean():.3g} ± "
                      f"{final.std(ddof=1) if len(final) > 1 else 0:.2g} | {vs} |")
+    return "\n".join(lines) + "\n"
+
+
+def summarize(out: Path, methods: list[str], title: str) -> None:
+    """Writes ``out/curves.png`` (mean +- std over seeds) and ``out/table.md`` (:func:`table`)
+    from the records under ``out``."""
+    from hiddpg.experiments.report import pyplot
+
+    found = curves(out, methods)
+    if not found:
+        return
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for m, (steps, values, _) in found.items():
+        mean, std = values.mean(0), values.std(0, ddof=1) if len(values) > 1 else 0 * values[0]
+        (line,) = ax.plot(steps, mean, label=f"{m} ({len(values)} seeds)")
+        ax.fill_between(steps, mean - std, mean + std, color=line.get_color(), alpha=0.15)
     ax.set(xlabel="environment steps per seed", ylabel="evaluation return", title=title)
     ax.legend(fontsize=8)
     fig.savefig(out / "curves.png", dpi=120, bbox_inches="tight")
     plt.close(fig)
-    (out / "table.md").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines) + f"\nwrote {out / 'curves.png'}, {out / 'table.md'}")
+    text = table(found)
+    (out / "table.md").write_text(text)
+    print(text + f"wrote {out / 'curves.png'}, {out / 'table.md'}")
+
+
+ALL = (*OURS, "sb3-ddpg", BASELINE)
+
+if __name__ == "__main__":  # redraw from the records: python benchmarks/_demo_summary.py OUT
+    import sys
+
+    for arg in sys.argv[1:]:
+        summarize(Path(arg), list(ALL), f"{Path(arg).name}: evaluation return, mean ± std "
+                  "over seeds")
