@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 
 OURS, BASELINE = ("ddpg", "hi-ddpg", "h-ddpg"), "sb3-td3"
+#: Every method of the demo, in the order of its curves and table.
+ALL = (*OURS, "sb3-ddpg", BASELINE)
 
 
 def read(path: Path) -> dict | None:
@@ -87,8 +89,6 @@ def summarize(out: Path, methods: list[str], title: str) -> None:
     (out / "table.md").write_text(text)
     print(text + f"wrote {out / 'curves.png'}, {out / 'table.md'}")
 
-
-ALL = (*OURS, "sb3-ddpg", BASELINE)
 
 if __name__ == "__main__":  # redraw from the records: python benchmarks/_demo_summary.py OUT
     import sys

@@ -182,9 +182,9 @@ def run_sb3(method: str, a: argparse.Namespace, out: Path, horizon: int) -> None
     import stable_baselines3 as sb3
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.noise import NormalActionNoise
 
     torch.set_num_threads(SB3_THREADS)
-    from stable_baselines3.common.noise import NormalActionNoise
 
     p, env_id = sb3_params(a, "gym:" + ENVS[a.env][0]), ENVS[a.env][0]
     reset_seeds, every = eval_seeds(a.eval_episodes)[1], a.eval_every * horizon

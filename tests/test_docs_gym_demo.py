@@ -58,13 +58,13 @@ def test_every_linked_file_is_committed(text: str):
     assert not missing, missing
 
 
-@pytest.mark.parametrize("table", sorted(DEMO.glob("*/hi-ddpg-eval.txt")),
+@pytest.mark.parametrize("eval_table", sorted(DEMO.glob("*/hi-ddpg-eval.txt")),
                          ids=lambda p: p.parent.name)
-def test_the_gif_episodes_quoted_are_the_eval_table(table: Path, text: str):
+def test_the_gif_episodes_quoted_are_the_eval_table(eval_table: Path, text: str):
     """``seed S −R with K`` in the page: seed S's env_return and switches in ``hiddpg eval``'s
     table of the run, as committed."""
     rows = {int(r[0]): (float(r[2]), int(r[3])) for r in
-            (line.split() for line in table.read_text().splitlines())
+            (line.split() for line in eval_table.read_text().splitlines())
             if len(r) == 5 and r[0].isdigit()}
     quoted = re.findall(r"seed (\d+)\s+−(\d+\.\d) with (\d+)", text)
     assert quoted, "the page quotes no evaluation episode"
