@@ -58,15 +58,32 @@ def test_every_linked_file_is_committed(text: str):
     assert not missing, missing
 
 
+def section(text: str, env: str) -> str:
+    """The part of the page under the ``## ENV`` heading, up to the next ``## `` heading."""
+    parts = re.split(r"^## ", text, flags=re.M)
+    found = [p for p in parts if p.startswith(env)]
+    assert len(found) == 1, f"docs/gym-demo.md has {len(found)} sections for {env}"
+    return found[0]
+
+
+def test_a_section_ends_at_the_next_heading():
+    page = "intro\n## A-v0\nseed 1 −2.0 with 3\n## B-v0 (x)\nseed 1 4.0 with 5\n"
+    assert section(page, "A-v0") == "A-v0\nseed 1 −2.0 with 3\n"
+    assert section(page, "B-v0") == "B-v0 (x)\nseed 1 4.0 with 5\n"
+
+
 @pytest.mark.parametrize("eval_table", sorted(DEMO.glob("*/hi-ddpg-eval.txt")),
                          ids=lambda p: p.parent.name)
 def test_the_gif_episodes_quoted_are_the_eval_table(eval_table: Path, text: str):
-    """``seed S −R with K`` in the page: seed S's env_return and switches in ``hiddpg eval``'s
-    table of the run, as committed."""
+    """``seed S R with K`` in the environment's section of the page (R signed, ``−`` for a
+    negative return): seed S's env_return and switches in ``hiddpg eval``'s table of the run,
+    as committed."""
     rows = {int(r[0]): (float(r[2]), int(r[3])) for r in
             (line.split() for line in eval_table.read_text().splitlines())
             if len(r) == 5 and r[0].isdigit()}
-    quoted = re.findall(r"seed (\d+)\s+−(\d+\.\d) with (\d+)", text)
-    assert quoted, "the page quotes no evaluation episode"
-    for seed, ret, switches in quoted:
-        assert rows[int(seed)] == (pytest.approx(-float(ret), abs=0.05), int(switches)), seed
+    part = section(text, eval_table.parent.name)
+    quoted = re.findall(r"seed (\d+)\s+(−?)(\d+\.\d) with (\d+)", part)
+    assert quoted, f"the {eval_table.parent.name} section quotes no evaluation episode"
+    for seed, minus, ret, switches in quoted:
+        value = -float(ret) if minus else float(ret)
+        assert rows[int(seed)] == (pytest.approx(value, abs=0.05), int(switches)), seed
