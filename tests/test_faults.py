@@ -109,10 +109,19 @@ def test_signals_at_many_moments_stop_cleanly(reference, tmp_path, sig):
     finished as it was when training ended before the signal; the last interrupted one is
     then resumed to the end and matches the uninterrupted run."""
     interrupted = []
-    for i, delay in enumerate([0.0, 0.4, 1.0, 2.0, 3.5, 6.0]):
+    # (from, delay): the first two moments count from the start (parsing, imports); the others
+    # from the run directory's config.json, so a slow, loaded machine still signals the run
+    # during compilation and training rather than before it exists.
+    moments = [("start", 0.0), ("start", 0.4), ("run", 0.0), ("run", 0.5), ("run", 1.5),
+               ("run", 3.0)]
+    for i, (since, delay) in enumerate(moments):
         name = f"s{i}"
         proc = new_run(tmp_path, name)
         handles_signals(proc)
+        deadline = time.monotonic() + 60
+        while (since == "run" and not (tmp_path / name / "config.json").is_file()
+               and proc.poll() is None and time.monotonic() < deadline):
+            time.sleep(0.05)
         time.sleep(delay)
         proc.send_signal(sig)
         t0 = time.monotonic()
