@@ -124,6 +124,10 @@ def test_an_artifact_that_holds_the_seeds_is_reused_without_its_run(outputs, tmp
         assert "finished, reused (seeds " in capsys.readouterr().err
         assert not (out / "runs").exists() and not (out / "parts").exists()
         assert _numbers(out) == _numbers(whole)
+        # the report's training time is the artifact's (the parts' sum), with no run on disk
+        wall = json.loads((source / "artifacts" / RUN / "meta.json").read_text())["wall_time"]
+        assert f"| training {RUN} (all invocations) | {wall:.1f} |" in (
+            out / "report.md").read_text()
 
 
 @pytest.mark.parametrize("part, says", [("2", "part=[2] must be seeds of the runs' 0..1"),

@@ -238,7 +238,8 @@ def run_comparison(ctx: Context, name: str, algos: Sequence[str] = COMPARED) -> 
     if success:
         numbers["success_rate"] = success
     markdown = "\n".join([*notes, "" if notes else "", summary_markdown(numbers, success)])
-    section = {"title": f"Fig. {name[-1]}: {len(runs)} methods on {task}",
+    methods = f"{len(runs)} method" + ("" if len(runs) == 1 else "s")
+    section = {"title": f"Fig. {name[-1]}: {methods} on {task}",
                "figures": [str(p.relative_to(ctx.out)) for p in figures],
                "markdown": markdown.strip(), "numbers": numbers,
                "runs": {m: str(r.path.relative_to(ctx.out)) for m, r in runs.items()},

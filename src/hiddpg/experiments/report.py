@@ -76,14 +76,20 @@ def load_sections(out: Path) -> dict[str, dict]:
 
 
 def training_wall_time(out: Path, from_artifacts: bool = False) -> dict[str, float]:
-    """Wall-clock training seconds recorded by every run under ``out/runs`` (or by every
-    artifact under ``out/artifacts``)."""
-    folder, file = ("artifacts", META_FILE) if from_artifacts else ("runs", PROGRESS_FILE)
-    times = {}
-    for path in sorted((out / folder).glob(f"*/{file}")):
-        wall = json.loads(path.read_text()).get("wall_time")
-        if wall is not None:
-            times[path.parent.name] = float(wall)
+    """Wall-clock training seconds of every run: each artifact under ``out/artifacts`` (a run
+    merged from parts: the sum of its parts), and, unless ``from_artifacts``, every run
+    directory under ``out/runs`` that no artifact records yet (a run or part in progress)."""
+    times, recorded = {}, set()
+    for path in sorted((out / "artifacts").glob(f"*/{META_FILE}")):
+        meta, name = json.loads(path.read_text()), path.parent.name
+        recorded |= {name} | {f"{name}.{p['part']}" for p in meta.get("parts") or []}
+        if meta.get("wall_time") is not None:
+            times[name] = float(meta["wall_time"])
+    if not from_artifacts:
+        for path in sorted((out / "runs").glob(f"*/{PROGRESS_FILE}")):
+            wall = json.loads(path.read_text()).get("wall_time")
+            if path.parent.name not in recorded and wall is not None:
+                times[f"{path.parent.name} (no artifact yet)"] = float(wall)
     return times
 
 
