@@ -171,3 +171,20 @@ def test_a_claim_on_fewer_seeds_than_planned_says_so(outputs):
         "**reproduced**: PT1 1/1, PT2 2/2; seeds 0-1, some runs on 1 of them so far")
     assert Output(parted).seeds("hi-ddpg", ["PuckTrajectory2", "PuckTrajectory1"]) == {
         "seeds": [0, 1], "fewest": 2}  # PuckTrajectory1 has no artifact there
+
+
+def test_training_time_counts_each_run_once(tmp_path):
+    """An artifact's time covers its parts' run directories; a run with no artifact yet (in
+    progress) counts from its own directory, unless the report is drawn from artifacts."""
+    from hiddpg.experiments.artifacts import META_FILE
+    from hiddpg.experiments.report import training_wall_time
+    from hiddpg.runs import PROGRESS_FILE
+
+    files = {f"artifacts/{RUN}/{META_FILE}": {"wall_time": 30.0, "parts": [{"part": "seeds-0"}]},
+             f"runs/{RUN}.seeds-0/{PROGRESS_FILE}": {"wall_time": 30.0},
+             f"runs/{RUN}.seeds-1/{PROGRESS_FILE}": {"wall_time": 7.0}}
+    for name, content in files.items():
+        (tmp_path / name).parent.mkdir(parents=True)
+        (tmp_path / name).write_text(json.dumps(content))
+    assert training_wall_time(tmp_path) == {RUN: 30.0, f"{RUN}.seeds-1 (no artifact yet)": 7.0}
+    assert training_wall_time(tmp_path, from_artifacts=True) == {RUN: 30.0}
