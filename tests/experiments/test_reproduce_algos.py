@@ -102,3 +102,28 @@ def test_a_figure_whose_artifacts_are_all_there_is_drawn(tmp_path):
     (artifact / META_FILE).write_text("{}")
     assert not_drawn(ctx, "fig3") is None
     assert not_drawn(Context(out=str(tmp_path), scale="quick", variant="quick"), "fig6") is None
+
+
+def test_an_artifact_written_while_it_trains_is_drawn(outputs, tmp_path, monkeypatch):
+    """Two invocations beside each other: the one that finishes last draws both methods,
+    even though the other's artifact was not there when it started."""
+    import shutil
+
+    from hiddpg.experiments import comparison
+
+    out = tmp_path / "out"
+    shutil.copytree(outputs[0], out)
+    hi = out / "artifacts" / "hi-ddpg-PuckObstacle"
+    hidden = hi.rename(tmp_path / "hidden")
+    real = comparison.ensure_run
+
+    def ensure_run(ctx, algo, task):  # the other invocation finishes while ddpg's trains
+        if algo == "ddpg" and not hi.exists():
+            hidden.rename(hi)
+        return real(ctx, algo, task)
+
+    monkeypatch.setattr(comparison, "ensure_run", ensure_run)
+    assert _fig7(out, "--algos", "ddpg") == 0
+    section = _section(out)
+    assert list(section["runs"]) == ["HI-DDPG", "DDPG"]
+    assert "hi-ddpg is not available" not in section["markdown"]

@@ -211,18 +211,22 @@ def summary_markdown(numbers: dict, success: Mapping[str, float] | None = None) 
 
 def run_comparison(ctx: Context, name: str, algos: Sequence[str] = COMPARED) -> dict:
     """Train or reuse every available method on ``FIGURES[name]``; write the figure and the
-    report section; return the section."""
+    report section; return the section. The methods this invocation does not train are
+    looked up once its own training is done, so an artifact another invocation wrote
+    meanwhile (one beside it, say) is drawn."""
     from hiddpg.experiments.arm import success_rates
 
     t0, task = time.perf_counter(), FIGURES[name]
+    trained = {algo: ensure_run(ctx, algo, task) for algo in algos
+               if ctx.trains(algo) and available(ctx, algo, task) is None}
     runs, notes = {}, []
-    for algo in algos:
-        why = available(ctx, algo, task)
+    for algo in algos:  # the others' artifacts as they are now, after the training
+        why = None if algo in trained else available(ctx, algo, task)
         if why:
             notes.append(f"{algo} is not available and was left out ({why}).")
             ctx.say(f"{name}: leaving out {algo}: {why}")
             continue
-        run = load_run(ensure_run(ctx, algo, task))
+        run = load_run(trained.get(algo) or ensure_run(ctx, algo, task))
         runs[run.label] = run
         progress = run.progress()
         if progress.get("status") != "finished":
