@@ -38,6 +38,8 @@ def test_first_invocation_trains_and_draws_only_its_algorithm(outputs):
     _, first, _ = outputs
     assert list(first["runs"]) == ["DDPG"]
     assert first["numbers"]["final"]["DDPG"]["n"] == 2
+    assert first["numbers"]["seeds"] == {"DDPG": [0, 1]}
+    assert "| DDPG | 2 | 0-1 |" in first["markdown"]  # each method's seeds beside its numbers
     for other in ("hi-ddpg", "h-ddpg", "hi-ddpg-wo-model"):
         assert f"{other} is not available and was left out (not trained here (--algos ddpg)" \
             in first["markdown"]

@@ -56,6 +56,8 @@ def test_one_part_is_drawn_with_its_own_seeds(outputs):
     assert [p["part"] for p in one["meta"]["parts"]] == ["seeds-1"]
     assert "| hi-ddpg-PuckTrajectory2 | 1 | 20 | finished | seeds-1 |" in one["report"]
     assert one["numbers"] != _numbers(whole)  # one seed of two: other statistics
+    assert one["numbers"]["seeds"] == [1]
+    assert re.search(r"^\| 1 \| 1 \| -?\d", one["report"], re.M)  # runs, seeds, return
 
 
 def test_the_parts_merge_into_the_whole_run_s_artifact(outputs):
@@ -85,6 +87,7 @@ def test_report_redraws_a_merged_output_from_its_artifacts(outputs, tmp_path):
     assert _numbers(out) == _numbers(whole)
     report = (out / "report.md").read_text()
     assert "| hi-ddpg-PuckTrajectory2 | 0-1 | 20 | finished | seeds-0, seeds-1 |" in report
+    assert re.search(r"^\| 2 \| 0-1 \| -?\d", report, re.M)  # Fig. 3's runs and seeds
     # what is left: nothing of this run; the puck's (never run) at this run's rate
     left = report.split("## Still to train")[1]
     assert "| hi-ddpg on PuckTrajectory2 | 2 | 0-1 | 0 | 0 |" in left

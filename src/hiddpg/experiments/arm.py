@@ -21,6 +21,7 @@ from hiddpg.experiments import stats
 from hiddpg.experiments.common import Context, ensure_run
 from hiddpg.experiments.report import fmt, fmt_ci, fmt_pm, pyplot, save_figure, write_section
 from hiddpg.experiments.rundata import RunData, load_run
+from hiddpg.runner import seed_ranges
 
 TASK = "ArmObstacle"
 ALGO = "hi-ddpg"
@@ -133,14 +134,16 @@ def fig6(ctx: Context) -> dict:
                "success_rate": float(success.mean()), "collision_rate": float(collision.mean()),
                "final_eval_return": summary, "switches": switches.tolist(),
                "pretrain_episodes": pretrain, "episode": final.episode,
-               "drawn_seed": run.seeds[i], "drawn_goals_rad": np.asarray(goals).tolist()}
+               "seeds": list(run.seeds), "drawn_seed": run.seeds[i],
+               "drawn_goals_rad": np.asarray(goals).tolist()}
     markdown = "\n".join([
         f"Final noise-free episode of every run after {final.episode} episodes (the first "
         f"{pretrain} were low-level pre-training). Success: hand within {radius} m of the "
         "target at the end without collision.", "",
-        "| runs | success rate | collision rate | eval return (mean ± std) | IQM [95% CI] | "
-        "switches (mean ± std) |", "|---:|---:|---:|---:|---:|---:|",
-        f"| {summary['n']} | {fmt(success.mean())} | {fmt(collision.mean())} | "
+        "| runs | seeds | success rate | collision rate | eval return (mean ± std) | "
+        "IQM [95% CI] | switches (mean ± std) |", "|---:|---|---:|---:|---:|---:|---:|",
+        f"| {summary['n']} | {', '.join(seed_ranges(run.seeds))} | {fmt(success.mean())} | "
+        f"{fmt(collision.mean())} | "
         f"{fmt_pm(summary['mean'], summary['std'])} | "
         f"{fmt_ci(summary['iqm'], summary['ci_low'], summary['ci_high'])} | "
         f"{fmt_pm(switches.mean(), switches.std(ddof=1) if len(switches) > 1 else np.nan)} |"])

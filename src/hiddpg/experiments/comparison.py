@@ -24,6 +24,7 @@ from hiddpg.experiments.common import Context, available, ensure_run
 from hiddpg.experiments.report import fmt, fmt_ci, fmt_pm, pyplot, save_figure, write_section
 from hiddpg.experiments.rundata import RunData, load_run
 from hiddpg.presets import task_family
+from hiddpg.runner import seed_ranges
 
 COMPARED = ("hi-ddpg", "h-ddpg", "hi-ddpg-wo-model", "ddpg")
 """The paper's four methods, in its order."""
@@ -191,11 +192,13 @@ def summary_markdown(numbers: dict, success: Mapping[str, float] | None = None) 
     extra = " success rate |" if success else ""
     lines = [f"Final return = each run's mean {numbers['metric']} over the last stage "
              f"(episodes {numbers['stages'][-1][0]}-{numbers['stages'][-1][1]}).", "",
-             f"| method | runs | final return (mean ± std) | IQM [95% CI] |{extra}",
-             "|---|---:|---:|---:|" + ("---:|" if success else "")]
+             f"| method | runs | seeds | final return (mean ± std) | IQM [95% CI] |{extra}",
+             "|---|---:|---|---:|---:|" + ("---:|" if success else "")]
+    seeds = numbers.get("seeds", {})
     for m, s in numbers["final"].items():
         rate = f" {fmt(success[m])} |" if success else ""
-        lines.append(f"| {m} | {s['n']} | {fmt_pm(s['mean'], s['std'])} | "
+        held = ", ".join(seed_ranges(seeds[m])) if m in seeds else "-"
+        lines.append(f"| {m} | {s['n']} | {held} | {fmt_pm(s['mean'], s['std'])} | "
                      f"{fmt_ci(s['iqm'], s['ci_low'], s['ci_high'])} |{rate}")
     if numbers["pairs"]:
         n_stages = len(numbers["stages"])
@@ -238,6 +241,7 @@ def run_comparison(ctx: Context, name: str, algos: Sequence[str] = COMPARED) -> 
     figures = save_figure(plot_comparison(comp, title), ctx.figure_stem(name),
                           ctx.note())
     numbers = summary_numbers(comp)
+    numbers["seeds"] = {m: list(r.seeds) for m, r in runs.items()}
     success = success_rates(runs) if task_family(task) == "arm" else None
     if success:
         numbers["success_rate"] = success

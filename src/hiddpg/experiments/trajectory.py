@@ -23,6 +23,7 @@ from hiddpg.experiments import stats
 from hiddpg.experiments.common import Context, ensure_run
 from hiddpg.experiments.report import fmt, fmt_ci, fmt_pm, pyplot, save_figure, write_section
 from hiddpg.experiments.rundata import RunData, Snapshot, load_run
+from hiddpg.runner import seed_ranges
 
 ALGO = "hi-ddpg"
 TASKS = ("PuckTrajectory1", "PuckTrajectory2", "PuckTrajectory3")
@@ -139,15 +140,16 @@ def fig3(ctx: Context) -> dict:
     tail = max(1, round(FINAL_FRACTION * ret.shape[1]))  # blocks
     final = stats.summarize(ret[:, -tail:].mean(axis=1))
     final_sw = run.final_snapshot().metrics["switches"]
-    numbers = {"task": FIG3_TASK, "final_high_level_return": final,
+    numbers = {"task": FIG3_TASK, "seeds": list(run.seeds), "final_high_level_return": final,
                "final_eval_switches": final_sw.tolist(), "reference_switches": reference}
     markdown = "\n".join([
         f"Final high-level return = each run's mean over its last {tail * blocks.size} "
         "training episodes.",
-        "", "| runs | final high-level return (mean ± std) | IQM [95% CI] | "
+        "", "| runs | seeds | final high-level return (mean ± std) | IQM [95% CI] | "
             "switches, final policy (per run) | reference switches |",
-        "|---:|---:|---:|---|---:|",
-        f"| {final['n']} | {fmt_pm(final['mean'], final['std'])} | "
+        "|---:|---|---:|---:|---|---:|",
+        f"| {final['n']} | {', '.join(seed_ranges(run.seeds))} | "
+        f"{fmt_pm(final['mean'], final['std'])} | "
         f"{fmt_ci(final['iqm'], final['ci_low'], final['ci_high'])} | "
         f"{', '.join(str(int(s)) for s in final_sw)} | {reference} |"])
     return _section(ctx, "fig3", f"Fig. 3: high-level return on {FIG3_TASK}", figures,
@@ -196,13 +198,15 @@ def fig4(ctx: Context) -> dict:
         numbers[task] = {"nearest_distance": near.tolist(), "segment_distance": seg.tolist(),
                          "switches": sw.tolist(), "reference_switches": len(goals) - 1,
                          "eval_env_return": final.metrics["env_return"].tolist(),
-                         "episode": final.episode, "drawn_seed": run.seeds[i],
+                         "episode": final.episode, "seeds": list(run.seeds),
+                         "drawn_seed": run.seeds[i],
                          "bar": bar_counts(near, sw, len(goals) - 1),
                          "bar_history": bar_history(snaps, goals, switch, params.max_steps)}
         b = numbers[task]["bar"]
         history.append(f"| {task} | " + ", ".join(
             f"{e}: {n}" for e, n in numbers[task]["bar_history"]) + " |")
-        bars.append(f"| {task} | {b['goals']} / {b['runs']} | {b['switches']} / {b['runs']} | "
+        bars.append(f"| {task} | {', '.join(seed_ranges(run.seeds))} | "
+                    f"{b['goals']} / {b['runs']} | {b['switches']} / {b['runs']} | "
                     f"{b['both']} / {b['runs']} |")
         for g in range(len(goals)):
             rows.append(f"| {task} | {g + 1} ({goals[g, 0]:.2f}, {goals[g, 1]:.2f}) | "
@@ -221,7 +225,8 @@ def fig4(ctx: Context) -> dict:
         "reference switches | eval return |", "|---|---|---:|---:|---:|---:|---:|", *rows, "",
         f"Runs that meet the bar (every reference goal has a learned goal within {GOAL_RADIUS}; "
         "the reference's switch count; the paper-scale target is both in 12 of 15 runs):", "",
-        "| task | goals within 0.3 | switch count = reference | both |", "|---|---:|---:|---:|",
+        "| task | seeds | goals within 0.3 | switch count = reference | both |",
+        "|---|---|---:|---:|---:|",
         *bars, "", "Runs that meet both over training (the noise-free snapshot after each "
         "chunk; episode: runs):", "", "| task | episode: runs meeting the bar |", "|---|---|",
         *history])
