@@ -14,7 +14,8 @@ from hiddpg.experiments import claims
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "results.md"
 MAX_CELL = 250
-MAX_LINES = 320
+MAX_PROSE_LINES = 170  # the page's own text; the generated blocks grow with the outputs
+GENERATED = re.compile(r"<!-- hiddpg claims: \w+ -->.*?<!-- end -->", re.S)
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +58,9 @@ def test_the_claims_and_bars_are_the_code_s(text):
 
 
 def test_the_page_is_a_short_reference(text):
-    assert len(text.splitlines()) <= MAX_LINES
+    prose = GENERATED.sub("", text)
+    assert len(prose.splitlines()) <= MAX_PROSE_LINES, (
+        "docs/results.md's own text has grown: move what is not about the claims elsewhere")
     assert not re.search(r"\bsessions?\b|\b20\d\d-\d\d-\d\d\b", text, re.IGNORECASE)
     cells = [c.strip() for line in text.splitlines() if line.startswith("|")
              for c in line.strip("|").split("|")]
