@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from hiddpg import runner, runs, summary
+from hiddpg.machine import describe
 from hiddpg.presets import make_config
 from hiddpg.reporter import Reporter
 from hiddpg.runner import (
@@ -57,7 +58,9 @@ def reference(tmp_path_factory):
     path = tmp_path_factory.mktemp("runner") / "ref"
     run = prepare_new(CONFIG, SEEDS, path)
     assert run.progress() == {"episodes": 0, "total_episodes": 20, "wall_time": 0.0,
-                              "status": "running"}
+                              "status": "running",
+                              "machines": [{"machine": describe(), "episodes": [0, 0],
+                                            "wall_time": 0.0}]}
     recorder = Recorder()
     result = train_run(run, make_trainer(CONFIG), reporter=recorder)
     return path, result, recorder

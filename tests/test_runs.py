@@ -12,6 +12,7 @@ import pytest
 
 from hiddpg import run_check, runs
 from hiddpg.configs import from_dict, to_dict
+from hiddpg.machine import describe
 from hiddpg.presets import make_config
 from hiddpg.train import RunState
 
@@ -57,7 +58,9 @@ def test_create_and_open(tmp_path):
     meta = json.loads((tmp_path / "r" / runs.CONFIG_FILE).read_text())
     assert meta["seeds"] == list(SEEDS) and set(meta["versions"]) >= {"hiddpg", "jax"}
     assert run.progress() == {"episodes": 0, "total_episodes": 20, "wall_time": 0.0,
-                              "status": "running"}
+                              "status": "running",
+                              "machines": [{"machine": describe(), "episodes": [0, 0],
+                                            "wall_time": 0.0}]}
     again = runs.Run.open(tmp_path / "r")
     assert again.config == cfg and again.seeds == SEEDS
     with pytest.raises(FileExistsError):

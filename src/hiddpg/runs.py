@@ -8,7 +8,8 @@ A run lives in ``runs/<name>/`` (name default ``<algo>-<task>-<timestamp>``)::
     checkpoint.msgpack       the whole vmapped RunState (flax msgpack), after every chunk
     checkpoint.prev.msgpack  the checkpoint before it, kept in case the last one is damaged
     progress.json            episodes done, wall time, status: running / finished / failed /
-                             interrupted (Ctrl-C or SIGTERM, with the signal's name)
+                             interrupted (Ctrl-C or SIGTERM, with the signal's name), and
+                             which machine trained which episodes (:mod:`hiddpg.machine`)
     writer.lock              held by the one process training the run (its pid, host, since)
     tb/seed_<s>/             TensorBoard event files (only if tensorboardX is installed)
 
@@ -41,6 +42,7 @@ from flax import serialization
 from hiddpg.configs import TrainConfig, from_dict, to_dict
 from hiddpg.envs.registry import BUILTIN_TASKS, TASKS, restore_task
 from hiddpg.host.task import gym_task, is_gym_task, restore_gym_task
+from hiddpg.machine import describe, extend_spans
 from hiddpg.run_check import (
     CONFIG_REMEDY,
     load_state,
@@ -192,8 +194,15 @@ class Run:
 
     # -- progress -----------------------------------------------------------------------------
     def write_progress(self, episodes: int, wall_time: float, status: str, **extra: Any) -> None:
+        """progress.json: ``episodes`` trained in ``wall_time`` seconds, the run's ``status``,
+        ``extra`` entries, and the machines that trained it (:mod:`hiddpg.machine`)."""
+        try:
+            previous = self.progress()
+        except RunFileError:  # a new run, or a progress.json being rewritten from the checkpoint
+            previous = None
         data = {"episodes": int(episodes), "total_episodes": self.config.episodes,
-                "wall_time": round(float(wall_time), 3), "status": status, **extra}
+                "wall_time": round(float(wall_time), 3), "status": status, **extra,
+                "machines": extend_spans(previous, int(episodes), wall_time, describe())}
         atomic_write(self.path / PROGRESS_FILE, _json_bytes(data))
 
     def progress(self) -> dict[str, Any]:

@@ -19,6 +19,7 @@ from hiddpg.commands import reproduce
 from hiddpg.experiments.artifacts import EVALUATIONS_FILE, SNAPSHOTS_FILE, TRAINING_FILE
 from hiddpg.experiments.common import Context
 from hiddpg.experiments.parts import merge_parts, part_label
+from hiddpg.machine import describe, machine_text
 from hiddpg.runner import seed_ranges
 
 TINY = ["--seeds", "2", "--episodes", "20", "--set", "agent.hidden=[16,16]",
@@ -73,7 +74,11 @@ def test_the_parts_merge_into_the_whole_run_s_artifact(outputs):
                                                                   ("seeds-1", [1])]
     assert meta_b["wall_time"] == pytest.approx(sum(p["wall_time"] for p in meta_b["parts"]))
     assert {k: v for k, v in meta_b.items() if k not in ("parts", "wall_time", "files")} == {
-        k: v for k, v in meta_a.items() if k not in ("wall_time", "files")}
+        k: v for k, v in meta_a.items() if k not in ("wall_time", "files", "machines")}
+    # each part keeps the machine that trained it and its seconds (hiddpg.machine)
+    for part in meta_b["parts"]:
+        assert [(s["machine"], s["episodes"], s["wall_time"]) for s in part["machines"]] == [
+            (describe(), [0, 20], part["wall_time"])]
     assert _numbers(parted) == _numbers(whole)
     assert sorted(p.name for p in (parted / "runs").iterdir()) == [f"{RUN}.seeds-0",
                                                                    f"{RUN}.seeds-1"]
@@ -88,6 +93,9 @@ def test_report_redraws_a_merged_output_from_its_artifacts(outputs, tmp_path):
     report = (out / "report.md").read_text()
     assert "| hi-ddpg-PuckTrajectory2 | 0-1 | 20 | finished | seeds-0, seeds-1 |" in report
     assert re.search(r"^\| 2 \| 0-1 \| -?\d", report, re.M)  # Fig. 3's runs and seeds
+    where = report.split("## Where the runs trained")[1].split("##")[0]
+    for seed in (0, 1):
+        assert f"| {RUN} | {seed} | 1-20 | {machine_text(describe())} | " in where
     # what is left: nothing of this run; the puck's (never run) at this run's rate
     left = report.split("## Still to train")[1]
     assert "| hi-ddpg on PuckTrajectory2 | 2 | 0-1 | 0 | 0 |" in left

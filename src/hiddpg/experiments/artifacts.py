@@ -5,7 +5,8 @@
 
     config.json      the run's config.json as it is (config, seeds, versions)
     meta.json        format, hiddpg version, algorithm, task, preset, seeds, episodes trained,
-                     wall time, status, the training block size, the columns and the files
+                     wall time, status, the machines that trained which episodes
+                     (:mod:`hiddpg.machine`), the training block size, the columns and files
     evaluations.csv  seed, episode and every ``eval_*`` column of metrics.csv, on the
                      evaluated episodes only, every value as metrics.csv holds it
     training.csv     seed, episode (a block's last) and the block means of the training
@@ -44,7 +45,7 @@ META_FILE = "meta.json"
 EVALUATIONS_FILE = "evaluations.csv"
 TRAINING_FILE = "training.csv"
 SNAPSHOTS_FILE = "snapshots.json"
-PROGRESS_KEYS = ("episodes", "total_episodes", "wall_time", "status", "error")
+PROGRESS_KEYS = ("episodes", "total_episodes", "wall_time", "status", "error", "machines")
 """The run's progress.json entries meta.json repeats."""
 
 

@@ -31,7 +31,7 @@ from hiddpg.runner import seed_ranges
 from hiddpg.runs import CONFIG_FILE, Run
 
 PARTS_DIR = "parts"
-PART_KEYS = ("seeds", "hiddpg_version", "episodes", "wall_time", "status")
+PART_KEYS = ("seeds", "hiddpg_version", "episodes", "wall_time", "status", "machines")
 """The entries of a part's meta.json that the merged artifact lists for it."""
 
 

@@ -108,6 +108,34 @@ def runs_table(out: Path) -> list[str]:
     return lines
 
 
+def machines_table(out: Path) -> list[str]:
+    """Markdown lines: for every artifact under ``out/artifacts`` (each part of a merged one),
+    which machine trained which episodes in how many wall-clock seconds
+    (:mod:`hiddpg.machine`; "not recorded" for episodes trained before machines were)."""
+    from hiddpg.machine import machine_text
+    from hiddpg.runner import seed_ranges
+
+    lines = ["| run | seeds | episodes | machine | wall-clock seconds |",
+             "|---|---|---|---|---:|"]
+    for path in sorted((out / "artifacts").glob(f"*/{META_FILE}")):
+        meta = json.loads(path.read_text())
+        for rec in sorted(meta.get("parts") or [meta], key=lambda r: min(r["seeds"])):
+            spans = rec.get("machines") or [{"machine": None, "wall_time": rec.get("wall_time"),
+                                             "episodes": [0, rec.get("episodes")]}]
+            seeds = ", ".join(seed_ranges(rec["seeds"]))
+            for span in spans:
+                first, last = span["episodes"]
+                lines.append(f"| {path.parent.name} | {seeds} | {first + 1}-{last} | "
+                             f"{machine_text(span['machine'])} | {span['wall_time']} |")
+    return lines
+
+
+MACHINES_NOTE = ("Per run (each part of a run merged from parts): which machine trained which "
+                 "episodes, and in how many wall-clock seconds. Speed differs between CPUs "
+                 "(compare times only on one machine), and a seed trained on CPUs with other "
+                 "vector extensions may differ from itself in its last bits.")
+
+
 LEFT_NOTE = ("What every figure still needs: per run, the seeds its artifact holds finished, the "
              "environment steps the others take (seeds x episodes x horizon: an upper bound where "
              "episodes end early) and the hours they would take at this output's measured rate "
@@ -133,6 +161,7 @@ def write_report(ctx: Context, invocation_s: float | None = None) -> Path:
              "every statistic; the seeds each run holds so far are in the table of runs.", "",
              "## Budgets", "", budget_table(), "", "## Variants", "", variant_table(), "",
              "## Runs", "", *runs_table(ctx.out), "",
+             "## Where the runs trained", "", MACHINES_NOTE, "", *machines_table(ctx.out), "",
              "## Still to train", "", LEFT_NOTE, "", left_table(left(ctx)), ""]
     if ctx.episodes or ctx.sets or ctx.seeds:
         lines += [f"Overrides of this output: seeds={ctx.seeds}, episodes={ctx.episodes}, "
