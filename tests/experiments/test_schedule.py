@@ -100,3 +100,22 @@ def test_what_is_left_is_counted_from_the_artifacts_at_the_output_s_own_rate(tmp
     done = [r.__class__(r.algo, r.task, r.planned, tuple(range(15)), 0, 0.0, r.algo)
             for r in fresh]
     assert left_table(done) == "Nothing: every run holds the seeds it is meant to."
+
+
+def test_a_redraw_from_some_trajectory_tasks_still_counts_the_others_as_left(tmp_path):
+    """`hiddpg report` draws Figs. 4-5 from the trajectory tasks with an artifact (here PT2
+    alone), but what is still to train keeps PT1 and PT3, which the output is meant to hold."""
+    from hiddpg.experiments.redraw import artifact_context, write_context
+    from hiddpg.experiments.schedule import left
+
+    made = Context(tmp_path, scale="paper", variant="paper+")
+    write_context(made)
+    _meta(made, "hi-ddpg", "PuckTrajectory2", list(range(5)), 3000, 3600.0)
+    ctx = artifact_context(tmp_path)
+    assert figure_runs(ctx, "fig4") == [("hi-ddpg", "PuckTrajectory2")]
+    runs = {(r.algo, r.task): r for r in left(ctx)}
+    assert len(runs) == 11
+    for task in ("PuckTrajectory1", "PuckTrajectory3"):
+        assert runs["hi-ddpg", task].held == () and runs["hi-ddpg", task].steps_left == (
+            15 * 3000 * 30)
+    assert runs["hi-ddpg", "PuckTrajectory2"].steps_left == 10 * 3000 * 30

@@ -78,6 +78,10 @@ class Context:
     """``--set key=value`` for every run; ``agent.hidden=[..]`` sets every hidden-size field."""
     tasks: tuple[str, ...] | None = None
     """Restrict the trajectory tasks (Figs. 4-5) to these (tests)."""
+    planned_tasks: tuple[str, ...] | None = None
+    """The trajectory tasks the output is meant to hold where Figs. 4-5 are drawn from fewer
+    (:attr:`tasks`, a redraw's tasks with an artifact): what is still to train counts the
+    others too; ``None``: :attr:`tasks`."""
     log: Any = field(default=None, repr=False)
     """Where progress lines go (default: the current ``sys.stderr``)."""
     from_artifacts: bool = False

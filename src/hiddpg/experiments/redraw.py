@@ -56,7 +56,7 @@ def artifact_context(out: str | Path) -> Context:
                               f"({type(err).__name__}: {err})") from None
     recorded = tuple(data.get("tasks") or TASKS)
     present = tuple(t for t in recorded if is_artifact(ctx.artifact_path(ALGO, t)))
-    ctx.tasks = present or recorded
+    ctx.tasks, ctx.planned_tasks = present or recorded, recorded
     return ctx
 
 

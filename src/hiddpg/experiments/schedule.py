@@ -20,14 +20,16 @@ from hiddpg.runs import CONFIG_FILE, Run
 CHEAP_FIRST = ("fig3", "fig4", "fig5", "fig7", "fig6", "fig8")
 
 
-def figure_runs(ctx: Context, figure: str) -> list[tuple[str, str]]:
-    """``(algo, task)`` of every run ``figure`` draws from."""
+def figure_runs(ctx: Context, figure: str, planned: bool = False) -> list[tuple[str, str]]:
+    """``(algo, task)`` of every run ``figure`` draws from; ``planned``: of every run it is
+    meant to draw from (:attr:`Context.planned_tasks` where a redraw draws from fewer)."""
     from hiddpg.experiments import arm, comparison, trajectory
 
     if figure == "fig3":
         return [(trajectory.ALGO, trajectory.FIG3_TASK)]
     if figure in ("fig4", "fig5"):
-        return [(trajectory.ALGO, t) for t in (ctx.tasks or trajectory.TASKS)]
+        tasks = (ctx.planned_tasks if planned else None) or ctx.tasks or trajectory.TASKS
+        return [(trajectory.ALGO, t) for t in tasks]
     if figure == "fig6":
         return [(arm.ALGO, arm.TASK)]
     if figure in comparison.FIGURES:
@@ -136,7 +138,7 @@ def left(ctx: Context) -> list[LeftRun]:
 
     order: list[tuple[str, str]] = []
     for figure in CHEAP_FIRST:
-        order += [key for key in figure_runs(ctx, figure) if key not in order]
+        order += [key for key in figure_runs(ctx, figure, planned=True) if key not in order]
     rows, measured, own = [], {}, {}
     for algo, task in order:
         config = ctx.config(algo, task)
