@@ -12,6 +12,10 @@ python3 -m venv .venv
 JAX_COMPILATION_CACHE_DIR="$(mktemp -d)"
 export JAX_COMPILATION_CACHE_DIR JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS=0.5
 trap 'rm -rf "$JAX_COMPILATION_CACHE_DIR"' EXIT
+# XLA without its expensive passes: most tests compile far more than they run; the tests that
+# train long or compare recorded numbers are marked xla_optimized (tests/conftest.py).
+# JAX_DISABLE_MOST_OPTIMIZATIONS=0 runs every test at XLA's default level
+export JAX_DISABLE_MOST_OPTIMIZATIONS="${JAX_DISABLE_MOST_OPTIMIZATIONS:-1}"
 # the tests marked heavy (long end-to-end checks: a Ray worker killed, CPU devices, faults at
 # random moments, two golden runs, a 3000-episode learning run, the hindsight learning run, a
 # Huber-schedule equivalence run) only with --heavy as the first argument; without it, what CI

@@ -209,7 +209,7 @@ def test_cli_trains_an_unregistered_class_in_process(tmp_path):
     assert all(float(r["critic_loss"]) > 0 for r in rows if r["episode"] != "1")
 
 
-@pytest.mark.slow
+@pytest.mark.heavy  # CI: the CLI in process below, the README's commands in fresh processes
 def test_cli_trains_h_ddpg_in_a_fresh_process_and_resumes(tmp_path):
     argv = ["train", "h-ddpg", "user_env.slider:Slider", "--preset", "quick", "--seeds", "0-1",
             *[a for s in EPISODES + TINY["h-ddpg"] for a in ("--set", s)],

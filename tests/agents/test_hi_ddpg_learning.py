@@ -18,7 +18,7 @@ import pytest
 from hiddpg.presets import make_config
 from hiddpg.train import Trainer, seed_keys
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.xla_optimized]
 
 REFERENCE_GOAL = np.array([1.5, 0.35])
 SEEDS = [0, 1, 2]

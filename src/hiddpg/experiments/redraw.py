@@ -62,20 +62,20 @@ def artifact_context(out: str | Path) -> Context:
 
 def drawable(ctx: Context) -> dict[str, str | None]:
     """Figure -> ``None`` if the artifacts it reads are under ``ctx.out``, else what is
-    missing (one line)."""
-    from hiddpg.experiments import arm, comparison, trajectory
+    missing (one line). A comparison figure needs one of its algorithms, the others every
+    run."""
+    from hiddpg.experiments import comparison
+    from hiddpg.experiments.schedule import CHEAP_FIRST, figure_runs
 
-    needs = {"fig3": [(trajectory.ALGO, trajectory.FIG3_TASK)],
-             "fig4": [(trajectory.ALGO, t) for t in ctx.tasks or trajectory.TASKS],
-             "fig6": [(arm.ALGO, arm.TASK)]}
-    needs["fig5"] = needs["fig4"]
     out: dict[str, str | None] = {}
-    for name in ("fig3", "fig4", "fig5", "fig6"):
-        missing = [ctx.artifact_path(a, t) for a, t in needs[name]
+    for name in CHEAP_FIRST:
+        runs = figure_runs(ctx, name)
+        if name in comparison.FIGURES:
+            paths = [ctx.artifact_path(a, t) for a, t in runs]
+            out[name] = None if any(map(is_artifact, paths)) else (
+                f"no artifact of {', '.join(comparison.COMPARED)} on {comparison.FIGURES[name]}")
+            continue
+        missing = [ctx.artifact_path(a, t) for a, t in runs
                    if not is_artifact(ctx.artifact_path(a, t))]
         out[name] = f"no artifact {missing[0]}" if missing else None
-    for name, task in comparison.FIGURES.items():
-        paths = [ctx.artifact_path(a, task) for a in comparison.COMPARED]
-        out[name] = None if any(map(is_artifact, paths)) else (
-            f"no artifact of {', '.join(comparison.COMPARED)} on {task}")
     return out
