@@ -17,9 +17,9 @@ trap 'rm -rf "$JAX_COMPILATION_CACHE_DIR"' EXIT
 # JAX_DISABLE_MOST_OPTIMIZATIONS=0 runs every test at XLA's default level
 export JAX_DISABLE_MOST_OPTIMIZATIONS="${JAX_DISABLE_MOST_OPTIMIZATIONS:-1}"
 # the tests marked heavy (long end-to-end checks: a Ray worker killed, CPU devices, faults at
-# random moments, three golden runs, a 3000-episode learning run, the hindsight learning run, a
-# Huber-schedule equivalence run, h-DDPG through the CLI in a fresh process) only with --heavy
-# as the first argument; without it, what CI runs
+# random moments, two trainings racing for a writer lock, three golden runs, a 3000-episode
+# learning run, the hindsight learning run, a Huber-schedule equivalence run, h-DDPG through
+# the CLI in a fresh process) only with --heavy as the first argument; without it, what CI runs
 marks=(-m "not heavy")
 if [[ "${1:-}" == "--heavy" ]]; then marks=(); shift; fi
 # two workers (the machine has two cores; most test time is XLA compilation, one core each);

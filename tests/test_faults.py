@@ -147,6 +147,7 @@ def test_signals_at_many_moments_stop_cleanly(reference, tmp_path, sig):
     same_as_reference(interrupted[-1], reference)
 
 
+@pytest.mark.heavy  # the lock itself, and the CLI's refusal: tests/test_writer_lock.py
 def test_second_writer_is_refused_and_a_dead_writers_lock_is_taken_over(reference, tmp_path):
     run_dir = tmp_path / "twice"
     first = new_run(tmp_path, "twice")
@@ -173,6 +174,7 @@ def test_second_writer_is_refused_and_a_dead_writers_lock_is_taken_over(referenc
     assert len(rows) == 2 * EPISODES
 
 
+@pytest.mark.heavy  # the lock itself, and the CLI's refusal: tests/test_writer_lock.py
 def test_two_resumes_at_once_one_is_refused(reference, tmp_path):
     """The reported case: two ``--resume`` of one stopped run started together. Exactly one
     trains; the other is refused; the metrics hold each episode once."""

@@ -49,3 +49,16 @@ def test_chunks_compile_once_per_size_and_match_make_train(trainer):
     _, tm, em = jax.jit(jax.vmap(make_train(trainer.config)))(keys)
     np.testing.assert_allclose(np.asarray(tm["return"]), returns, rtol=1e-5, atol=1e-5)
     np.testing.assert_array_equal(np.asarray(em["episode"])[0], [5, 10, 15, 20, 25])
+
+
+def test_make_train_holds_one_copy_of_the_evaluation_block_however_many_chunks():
+    def program(episodes: int) -> str:
+        cfg = make_config("ddpg", "PuckTrajectory1", "quick",
+                          TINY + [f"episodes={episodes}", "eval_every=5"])
+        return jax.jit(make_train(cfg)).lower(jax.random.PRNGKey(0)).as_text()
+
+    three_chunks, ten_chunks = program(25), program(100)  # chunk_episodes=10
+    assert three_chunks.count("stablehlo.while") == ten_chunks.count("stablehlo.while")
+    assert abs(len(ten_chunks) - len(three_chunks)) < 0.01 * len(three_chunks)
+    # a run short of its last block adds one copy of the block, of that many episodes
+    assert program(23).count("stablehlo.while") > three_chunks.count("stablehlo.while")

@@ -190,14 +190,19 @@ def make_train(config: TrainConfig):
     trains 15 seeds (without the axis name it gives the same result, computing every skipped
     update as well)."""
     trainer = Trainer(config)
+    every = config.eval_every
+    # the shell's chunks only mark checkpoints: one scan over the run's evaluation blocks, then
+    # the few episodes short of a block, computes the same and compiles one copy of the block
+    whole, rest = config.episodes // every * every, config.episodes % every
 
     def train(key: jax.Array):
         state = trainer.init(key)
         train_ms, eval_ms = [], []
-        for n in trainer.chunk_sizes():
-            state, tm, em = trainer.run_chunk(state, n)
-            train_ms.append(tm)
-            eval_ms.append(em)
+        for n in (whole, rest):
+            if n:
+                state, tm, em = trainer.run_chunk(state, n)
+                train_ms.append(tm)
+                eval_ms.append(em)
         cat = lambda *xs: jnp.concatenate(xs)  # noqa: E731
         return state, jax.tree.map(cat, *train_ms), jax.tree.map(cat, *eval_ms)
 
