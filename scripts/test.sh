@@ -23,5 +23,5 @@ export JAX_DISABLE_MOST_OPTIMIZATIONS="${JAX_DISABLE_MOST_OPTIMIZATIONS:-1}"
 marks=(-m "not heavy")
 if [[ "${1:-}" == "--heavy" ]]; then marks=(); shift; fi
 # two workers (the machine has two cores; most test time is XLA compilation, one core each);
-# --dist loadfile keeps each file's module fixtures in one worker
-.venv/bin/python -m pytest -q -n 2 --dist loadfile ${marks[@]+"${marks[@]}"} "$@"
+# --dist loadgroup keeps each file (or each group of files, tests/conftest.py) on one worker
+.venv/bin/python -m pytest -q -n 2 --dist loadgroup ${marks[@]+"${marks[@]}"} "$@"

@@ -14,6 +14,7 @@ import shutil
 
 import numpy as np
 import pytest
+from tiny_output import GROUP, TINY, copy_output
 
 from hiddpg.commands import report as report_cmd
 from hiddpg.commands import reproduce
@@ -31,8 +32,7 @@ from hiddpg.experiments.snapshots import (
 from hiddpg.presets import make_config
 from hiddpg.runs import Run
 
-TINY = ["--seeds", "2", "--episodes", "20", "--set", "agent.hidden=[16,16]",
-        "--tasks", "PuckTrajectory2"]
+pytestmark = GROUP
 PNG_MAGIC, PDF_MAGIC = b"\x89PNG\r\n\x1a\n", b"%PDF-"
 DRAWN = ("fig3", "fig4", "fig5")
 
@@ -42,9 +42,9 @@ def _numbers(out, name):
 
 
 @pytest.fixture(scope="module")
-def reproduced(tmp_path_factory):
-    out = tmp_path_factory.mktemp("reproduce")
-    for name in ("fig4", "fig3", "fig5"):  # trains once, then reuses the run
+def reproduced(tiny_fig4, tmp_path_factory):
+    out = copy_output(tiny_fig4, tmp_path_factory.mktemp("reproduce") / "out")
+    for name in ("fig3", "fig5"):  # reuse fig4's run
         assert reproduce.main([name, "--out", str(out), *TINY]) == 0
     return out
 

@@ -13,6 +13,7 @@ import shutil
 
 import numpy as np
 import pytest
+from tiny_output import GROUP, TINY, copy_output
 
 from hiddpg.commands import plot as plot_cmd
 from hiddpg.commands import reproduce
@@ -25,17 +26,14 @@ from hiddpg.experiments.trajectory import goal_distances
 from hiddpg.presets import make_config
 from hiddpg.runs import Run
 
-TINY = ["--seeds", "2", "--episodes", "20", "--set", "agent.hidden=[16,16]",
-        "--tasks", "PuckTrajectory2"]
+pytestmark = GROUP
 PNG_MAGIC, PDF_MAGIC = b"\x89PNG\r\n\x1a\n", b"%PDF-"
 RUN = "runs/hi-ddpg-PuckTrajectory2"
 
 
 @pytest.fixture(scope="module")
-def reproduced(tmp_path_factory):
-    out = tmp_path_factory.mktemp("reproduce")
-    assert reproduce.main(["fig4", "--out", str(out), *TINY]) == 0
-    return out
+def reproduced(tiny_fig4, tmp_path_factory):
+    return copy_output(tiny_fig4, tmp_path_factory.mktemp("reproduce") / "out")
 
 
 def _valid_figure(stem):

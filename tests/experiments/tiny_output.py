@@ -1,0 +1,23 @@
+"""The tiny reproduction several end-to-end test files share: Fig. 4 on PuckTrajectory2
+(HI-DDPG, 2 seeds x 20 episodes, hidden [16, 16]). It is trained once per test worker (the
+``tiny_fig4`` fixture of tests/experiments/conftest.py; the files that use it are one
+``xdist_group``, so one worker) and each file works on its own copy."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+TINY = ["--seeds", "2", "--episodes", "20", "--set", "agent.hidden=[16,16]",
+        "--tasks", "PuckTrajectory2"]
+GROUP = pytest.mark.xdist_group("tiny-fig4")
+"""The mark of every file that uses the shared output."""
+
+
+def copy_output(source: Path, target: Path) -> Path:
+    """A copy of the output ``source`` at ``target`` (its files' times kept), for one file's
+    tests to change."""
+    shutil.copytree(source, target, symlinks=True)
+    return target
