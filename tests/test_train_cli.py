@@ -143,11 +143,13 @@ def test_seed_order_does_not_matter(reference, tmp_path):
             r for r in ref if r["seed"] == str(seed)]
 
 
-def test_seed_of_many_equals_seed_alone(reference, tmp_path):
+@pytest.mark.xla_optimized  # XLA's old fusion emitters (CI's lowered level) round them apart
+def test_seed_of_many_equals_seed_alone(tmp_path):
     """Seeds are independent: seed i of a 0-2 run is, bit for bit, the run of seed i alone (on
     CPU the seeds of a device run one after another, each its own unbatched computation:
     hiddpg.devices.batch_seeds)."""
-    all_rows = runs.Run.open(reference).read_metrics()
+    assert train(tmp_path, "together") == 0
+    all_rows = runs.Run.open(tmp_path / "together").read_metrics()
     for seed in (0, 2):
         assert train(tmp_path, f"s{seed}", seeds=str(seed)) == 0
         alone = runs.Run.open(tmp_path / f"s{seed}").read_metrics()

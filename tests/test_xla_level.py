@@ -1,6 +1,7 @@
 """tests/conftest.py: where CI lowers XLA's optimisation, a test marked ``xla_optimized`` (its
 module fixtures and the processes it starts included) compiles at the default level, and the
-level comes back for the next test."""
+level comes back for the next test. The fusion emitters are told apart by what they compute:
+``tanh`` on a grid differs in its last bits between the old and the default emitters."""
 
 from __future__ import annotations
 
@@ -9,20 +10,41 @@ from pathlib import Path
 CONFTEST = Path(__file__).with_name("conftest.py")
 
 INNER = '''
+import hashlib
 import os
 import subprocess
 import sys
 
 import jax
+import jax.numpy as jnp
+import numpy as np
 import pytest
 
 FLAG = "jax_disable_most_optimizations"
 CHILD = "import jax; print(jax.config.read('jax_disable_most_optimizations'))"
+TANH = ("import hashlib, jax, jax.numpy as jnp, numpy as np\\n"
+        "x = jnp.linspace(-5, 5, 10001, dtype=jnp.float32)\\n"
+        "print(hashlib.sha256(np.asarray(jax.jit(jnp.tanh)(x)).tobytes()).hexdigest())")
+
+
+def child(code, env=None):
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, env=env).stdout.strip()
 
 
 def child_level():
-    return subprocess.run([sys.executable, "-c", CHILD], capture_output=True, text=True,
-                          check=True).stdout.strip()
+    return child(CHILD)
+
+
+def tanh_here():
+    x = jnp.linspace(-5, 5, 10001, dtype=jnp.float32)
+    return hashlib.sha256(np.asarray(jax.jit(jnp.tanh)(x)).tobytes()).hexdigest()
+
+
+def tanh_at_xla_defaults():
+    plain = {k: v for k, v in os.environ.items()
+             if k not in ("JAX_DISABLE_MOST_OPTIMIZATIONS", "XLA_FLAGS")}
+    return child(TANH, plain)
 
 
 @pytest.fixture(scope="module")
@@ -32,6 +54,8 @@ def level_at_module_setup():
 
 def test_a_plain_test_runs_lowered():
     assert jax.config.read(FLAG) is True and child_level() == "True"
+    default = tanh_at_xla_defaults()
+    assert tanh_here() != default and child(TANH) != default
 
 
 @pytest.mark.xla_optimized
@@ -39,11 +63,15 @@ def test_a_marked_test_and_its_module_fixture_run_at_the_default(level_at_module
     assert level_at_module_setup is False
     assert jax.config.read(FLAG) is False and os.environ["JAX_DISABLE_MOST_OPTIMIZATIONS"] == "0"
     assert child_level() == "False"
+    default = tanh_at_xla_defaults()
+    assert tanh_here() == default and child(TANH) == default
 
 
 def test_the_next_plain_test_runs_lowered_again():
     assert jax.config.read(FLAG) is True and os.environ["JAX_DISABLE_MOST_OPTIMIZATIONS"] == "1"
     assert child_level() == "True"
+    default = tanh_at_xla_defaults()
+    assert tanh_here() != default and child(TANH) != default
 '''
 
 
