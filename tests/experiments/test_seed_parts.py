@@ -13,7 +13,7 @@ import re
 import shutil
 
 import pytest
-from tiny_output import GROUP, TINY, copy_output
+from tiny_output import TINY
 
 from hiddpg.commands import report as report_cmd
 from hiddpg.commands import reproduce
@@ -23,7 +23,9 @@ from hiddpg.experiments.parts import merge_parts, part_label
 from hiddpg.machine import describe, machine_text
 from hiddpg.runner import seed_ranges
 
-pytestmark = GROUP
+# a seed computes bit for bit the same in a part as in the whole run at XLA's default build;
+# CI's lowered level rounds a one-seed and a two-seed program apart (tests/conftest.py)
+pytestmark = pytest.mark.xla_optimized
 RUN = "hi-ddpg-PuckTrajectory2"
 
 
@@ -36,10 +38,9 @@ def _numbers(out):
 
 
 @pytest.fixture(scope="module")
-def outputs(tiny_fig4, tmp_path_factory):
-    whole = copy_output(tiny_fig4, tmp_path_factory.mktemp("whole") / "whole")
-    parted = tmp_path_factory.mktemp("parted")
-    assert _fig3(whole) == 0  # reuses fig4's run
+def outputs(tmp_path_factory):
+    whole, parted = tmp_path_factory.mktemp("whole"), tmp_path_factory.mktemp("parted")
+    assert _fig3(whole) == 0
     assert _fig3(parted, "--part", "1") == 0
     after_one = {"meta": json.loads((parted / "artifacts" / RUN / "meta.json").read_text()),
                  "numbers": _numbers(parted), "report": (parted / "report.md").read_text()}

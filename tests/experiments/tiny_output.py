@@ -1,4 +1,4 @@
-"""The tiny reproduction several end-to-end test files share: Fig. 4 on PuckTrajectory2
+"""The tiny reproduction end-to-end test files share: Fig. 4 on PuckTrajectory2
 (HI-DDPG, 2 seeds x 20 episodes, hidden [16, 16]). It is trained once per test worker (the
 ``tiny_fig4`` fixture of tests/experiments/conftest.py; the files that use it are one
 ``xdist_group``, so one worker) and each file works on its own copy."""
