@@ -24,5 +24,5 @@ export JAX_DISABLE_MOST_OPTIMIZATIONS="${JAX_DISABLE_MOST_OPTIMIZATIONS:-1}"
 marks=(-m "not heavy")
 if [[ "${1:-}" == "--heavy" ]]; then marks=(); shift; fi
 # two workers (the machine has two cores; most test time is XLA compilation, one core each);
-# --dist loadgroup keeps each file (or each group of files, tests/conftest.py) on one worker
-.venv/bin/python -m pytest -q -n 2 --dist loadgroup ${marks[@]+"${marks[@]}"} "$@"
+# --dist loadfile keeps each file's module fixtures in one worker
+.venv/bin/python -m pytest -q -n 2 --dist loadfile ${marks[@]+"${marks[@]}"} "$@"

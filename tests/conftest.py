@@ -1,4 +1,4 @@
-"""XLA's optimisation level per test, and the grouping of tests on workers.
+"""XLA's optimisation level per test.
 
 ``scripts/test.sh`` (CI) sets ``JAX_DISABLE_MOST_OPTIMIZATIONS=1``: most tests compile far more
 than they run, so CI compiles at a lowered level: XLA without its expensive passes, and with
@@ -83,13 +83,3 @@ def pytest_runtest_protocol(item, nextitem):
         jax.config.update(FLAG, True)
         jax.clear_caches()
 
-
-@pytest.hookimpl(tryfirst=True)
-def pytest_collection_modifyitems(items):
-    """Under ``--dist loadgroup`` (scripts/test.sh) a test without an ``xdist_group`` mark is
-    in its file's group: each file runs on one worker and sets its module fixtures up once, as
-    under ``--dist loadfile``. Files that share a session fixture name one group
-    (tests/experiments/tiny_output.py)."""
-    for item in items:
-        if item.get_closest_marker("xdist_group") is None:
-            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))

@@ -14,7 +14,7 @@ import shutil
 
 import numpy as np
 import pytest
-from tiny_output import GROUP, TINY, copy_output
+from tiny_output import TINY, copy_output
 
 from hiddpg.commands import report as report_cmd
 from hiddpg.commands import reproduce
@@ -32,7 +32,6 @@ from hiddpg.experiments.snapshots import (
 from hiddpg.presets import make_config
 from hiddpg.runs import Run
 
-pytestmark = GROUP
 PNG_MAGIC, PDF_MAGIC = b"\x89PNG\r\n\x1a\n", b"%PDF-"
 DRAWN = ("fig3", "fig4", "fig5")
 

@@ -13,7 +13,7 @@ import shutil
 
 import numpy as np
 import pytest
-from tiny_output import GROUP, TINY, copy_output
+from tiny_output import TINY, copy_output
 
 from hiddpg.commands import plot as plot_cmd
 from hiddpg.commands import reproduce
@@ -26,7 +26,6 @@ from hiddpg.experiments.trajectory import goal_distances
 from hiddpg.presets import make_config
 from hiddpg.runs import Run
 
-pytestmark = GROUP
 PNG_MAGIC, PDF_MAGIC = b"\x89PNG\r\n\x1a\n", b"%PDF-"
 RUN = "runs/hi-ddpg-PuckTrajectory2"
 

@@ -1,19 +1,15 @@
 """The tiny reproduction end-to-end test files share: Fig. 4 on PuckTrajectory2
-(HI-DDPG, 2 seeds x 20 episodes, hidden [16, 16]). It is trained once per test worker (the
-``tiny_fig4`` fixture of tests/experiments/conftest.py; the files that use it are one
-``xdist_group``, so one worker) and each file works on its own copy."""
+(HI-DDPG, 2 seeds x 20 episodes, hidden [16, 16]). It is trained once per test worker that
+needs it (the ``tiny_fig4`` fixture of tests/experiments/conftest.py) and each file works on
+its own copy."""
 
 from __future__ import annotations
 
 import shutil
 from pathlib import Path
 
-import pytest
-
 TINY = ["--seeds", "2", "--episodes", "20", "--set", "agent.hidden=[16,16]",
         "--tasks", "PuckTrajectory2"]
-GROUP = pytest.mark.xdist_group("tiny-fig4")
-"""The mark of every file that uses the shared output."""
 
 
 def copy_output(source: Path, target: Path) -> Path:
