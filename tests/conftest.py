@@ -6,9 +6,11 @@ its older CPU fusion emitters (``xla_cpu_use_fusion_emitters=false``). A program
 about a third of the default time there and runs somewhat slower. A test that trains long
 enough for the slower program to cost more than the compilation saves, or that compares
 numbers recorded from the default build (the golden runs), is marked ``xla_optimized``: it runs
-at XLA's default level, in this process and in the processes it starts. The numbers a program
-computes differ between the two levels only in floating-point rounding. A plain ``pytest`` run
-(the variable unset or ``0``) uses the default level everywhere.
+at XLA's default level, in this process and in the processes it starts. So is a test that needs
+two programs to agree bit for bit (the lowered level rounds them apart), and the box QP check,
+whose one program leaves some problems unconverged at the lowered level only
+(tests/control/test_ilqr.py). A plain ``pytest`` run (the variable unset or ``0``) uses the
+default level everywhere.
 """
 
 from __future__ import annotations
